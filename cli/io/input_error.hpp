@@ -1,0 +1,18 @@
+// Errors in files people write by hand. Every message names the file and, where known,
+// the line (and column) and the key, and says what is allowed.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace granflow::io {
+
+class InputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// "file:line:col: " or "file: " when no position is known.
+std::string where(const std::string& file, long line = 0, long column = 0);
+
+}  // namespace granflow::io

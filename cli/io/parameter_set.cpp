@@ -1,0 +1,218 @@
+#include "parameter_set.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <iomanip>
+#include <sstream>
+
+#include "toml_reader.hpp"
+
+#ifndef GRANFLOW_SOURCE_DATA_DIR
+#define GRANFLOW_SOURCE_DATA_DIR "data"
+#endif
+
+namespace granflow::io {
+
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+FrictionalParams<double> read_frictional(TomlTable& t) {
+  FrictionalParams<double> f;
+  f.K0 = t.number("K0", Bounds::positive());
+  f.nu = t.number("nu", {-1.0, 0.5, true, true});
+  f.n = t.number("n", Bounds::closed(0.0, 1.0));
+  f.phi_c = t.number("phi_c_deg", Bounds::open(0.0, 90.0)) * kDeg;
+  f.e_ref = t.number("e_ref", Bounds::open(0.0, kVoidRatioMax));
+  f.lambda_c = t.number("lambda_c", Bounds::non_negative());
+  f.xi = t.number("xi", Bounds::positive());
+  f.A_d = t.number("A_d", Bounds::non_negative());
+  f.k_p = t.number("k_p", Bounds::positive());
+  f.n_p = t.number("n_p", Bounds::non_negative());
+  f.n_d = t.number("n_d", Bounds::non_negative());
+  f.p_at = t.number_or("p_at", f.p_at, Bounds::positive());
+  t.finish();
+  return f;
+}
+
+CollisionalParams<double> read_collisional(TomlTable& t) {
+  CollisionalParams<double> c;
+  c.rho_p = t.number("rho_p", Bounds::positive());
+  c.d = t.number("d", Bounds::positive());
+  const bool has_esd = t.has("e_sd"), has_vsd = t.has("V_sd");
+  if (has_esd == has_vsd) t.fail(has_esd ? "V_sd" : "e_sd", "give exactly one of e_sd or V_sd");
+  if (has_esd)
+    c.V_sd = 1.0 / (1.0 + t.number("e_sd", Bounds::positive()));
+  else
+    c.V_sd = t.number("V_sd", Bounds::open(0.0, 1.0));
+  c.V_m = t.number("V_m", Bounds::open(0.0, 1.0));
+  if (!(c.V_m < c.V_sd)) t.fail("V_m", "must be below V_sd = " + std::to_string(c.V_sd));
+  c.eps_n = t.number("eps_n", Bounds::closed(0.0, 1.0));
+  c.mu_p = t.number("mu_p", Bounds::non_negative());
+  const double alpha = effective_restitution(c);
+  if (!(alpha > -1.0 && alpha <= 1.0)) {
+    std::ostringstream os;
+    os << "effective restitution eps_n - 1.5 mu_p exp(-3 mu_p) = " << alpha << " must lie in (-1, 1]";
+    t.fail("mu_p", os.str());
+  }
+  t.finish();
+  return c;
+}
+
+void read_numerics(TomlTable& t, ParameterSet& s) {
+  if (s.frictional) {
+    auto& f = *s.frictional;
+    f.p_min = t.number_or("p_min", f.p_min, Bounds::positive());
+    f.stol = t.number_or("stol", f.stol, Bounds::open(0.0, 1.0));
+    f.ftol = t.number_or("ftol", f.ftol, Bounds::open(0.0, 1.0));
+    f.max_substeps = static_cast<int>(t.integer_or("max_substeps", f.max_substeps, 1, 1000000));
+  }
+  if (s.collisional) s.collisional->vs_gap = t.number_or("vs_gap", s.collisional->vs_gap, Bounds::open(0.0, 0.1));
+  t.finish();
+}
+
+}  // namespace
+
+PhaseTransitionParams<double> ParameterSet::phase_transition() const {
+  if (!frictional || !collisional)
+    throw InputError(where(file) + "the phase-transition model needs both [frictional] and [collisional]");
+  return {*frictional, *collisional};
+}
+
+ParameterSet parse_parameter_set(TomlTable& root) {
+  ParameterSet s;
+  s.file = root.file();
+  s.name = root.string_or("name", "");
+  s.source = root.string_or("source", "");
+  if (auto t = root.optional_table("frictional")) s.frictional = read_frictional(*t);
+  if (auto t = root.optional_table("collisional")) s.collisional = read_collisional(*t);
+  if (!s.frictional && !s.collisional)
+    throw InputError(where(s.file) + "a parameter set needs a [frictional] or a [collisional] table (or both)");
+  if (auto t = root.optional_table("initial")) {
+    if (t->has("e0")) s.e0 = t->numbers("e0", Bounds::open(0.0, kVoidRatioMax));
+    s.T0 = t->optional_number("T0", Bounds::non_negative());
+    t->finish();
+  }
+  if (auto t = root.optional_table("numerics")) read_numerics(*t, s);
+  root.finish();
+  for (double e0 : s.e0) check_initial_void_ratio(s, e0, "'initial.e0'");
+  return s;
+}
+
+void check_initial_void_ratio(const ParameterSet& s, double e0, const std::string& what) {
+  std::ostringstream os;
+  if (!(e0 > 0.0 && e0 < kVoidRatioMax)) {
+    os << where(s.file) << what << ": e0 = " << e0 << " must be in (0, " << kVoidRatioMax << ")";
+    throw InputError(os.str());
+  }
+  if (s.collisional) {
+    const double Vs = 1.0 / (1.0 + e0);
+    if (!(Vs < s.collisional->V_sd)) {
+      os << where(s.file) << what << ": e0 = " << e0 << " gives V_s = " << Vs << " at or above V_sd = "
+         << s.collisional->V_sd << " (e0 must exceed e_sd = " << 1.0 / s.collisional->V_sd - 1.0 << ")";
+      throw InputError(os.str());
+    }
+  }
+}
+
+std::string data_directory() {
+  if (const char* env = std::getenv("GRANFLOW_DATA_DIR")) return env;
+  return GRANFLOW_SOURCE_DATA_DIR;
+}
+
+ParameterSet load_parameter_set(const std::string& name_or_path) {
+  std::string path = name_or_path;
+  if (!std::filesystem::exists(path)) {
+    const std::string candidate = data_directory() + "/params/" + name_or_path + ".toml";
+    if (std::filesystem::exists(candidate)) {
+      path = candidate;
+    } else {
+      std::string known;
+      std::error_code ec;
+      for (const auto& e : std::filesystem::directory_iterator(data_directory() + "/params", ec))
+        if (e.path().extension() == ".toml") known += (known.empty() ? "" : ", ") + e.path().stem().string();
+      throw InputError(where(name_or_path) + "no such file, and no parameter set of that name" +
+                       (known.empty() ? std::string() : " (shipped sets: " + known + ")"));
+    }
+  }
+  const toml::table doc = TomlTable::parse_file(path);
+  TomlTable root(doc, path);
+  return parse_parameter_set(root);
+}
+
+void apply_override(ParameterSet& set, const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  const auto dot = assignment.find('.');
+  if (eq == std::string::npos || dot == std::string::npos || dot > eq)
+    throw InputError("--set '" + assignment + "': expected section.key=value, e.g. frictional.phi_c_deg=31");
+  const std::string section = assignment.substr(0, dot);
+  const std::string key = assignment.substr(dot + 1, eq - dot - 1);
+  const std::string value = assignment.substr(eq + 1);
+  // Re-serialise the set, change one value and parse again: the same validation applies.
+  std::string text = format_parameter_set(set);
+  toml::table doc;
+  try {
+    doc = toml::parse(std::string_view(text), std::string_view("<override>"));
+    auto* tbl = doc[section].as_table();
+    if (!tbl) throw InputError("--set '" + assignment + "': the set has no [" + section + "] table");
+    const std::string line = "v = " + value;
+    toml::table parsed = toml::parse(std::string_view(line), std::string_view("<override>"));
+    if (section == "collisional" && (key == "e_sd" || key == "V_sd")) {
+      tbl->erase("e_sd");
+      tbl->erase("V_sd");
+    }
+    tbl->insert_or_assign(key, *parsed.get("v"));
+  } catch (const toml::parse_error& err) {
+    throw InputError("--set '" + assignment + "': " + std::string(err.description()));
+  }
+  TomlTable root(doc, "--set " + assignment);
+  ParameterSet updated = parse_parameter_set(root);
+  updated.file = set.file;
+  set = updated;
+}
+
+std::string format_parameter_set(const ParameterSet& s) {
+  std::ostringstream os;
+  os << std::setprecision(17);
+  auto q = [](const std::string& v) {
+    std::string out = "\"";
+    for (char c : v) {
+      if (c == '"' || c == '\\') out += '\\';
+      out += c;
+    }
+    return out + "\"";
+  };
+  if (!s.name.empty()) os << "name = " << q(s.name) << "\n";
+  if (!s.source.empty()) os << "source = " << q(s.source) << "\n";
+  if (s.frictional) {
+    const auto& f = *s.frictional;
+    os << "\n[frictional]\nK0 = " << f.K0 << "\nnu = " << f.nu << "\nn = " << f.n << "\nphi_c_deg = " << f.phi_c / kDeg
+       << "\ne_ref = " << f.e_ref << "\nlambda_c = " << f.lambda_c << "\nxi = " << f.xi << "\nA_d = " << f.A_d
+       << "\nk_p = " << f.k_p << "\nn_p = " << f.n_p << "\nn_d = " << f.n_d << "\np_at = " << f.p_at << "\n";
+  }
+  if (s.collisional) {
+    const auto& c = *s.collisional;
+    os << "\n[collisional]\nrho_p = " << c.rho_p << "\nd = " << c.d << "\nV_sd = " << c.V_sd << "\nV_m = " << c.V_m
+       << "\neps_n = " << c.eps_n << "\nmu_p = " << c.mu_p << "\n";
+  }
+  if (!s.e0.empty() || s.T0) {
+    os << "\n[initial]\n";
+    if (!s.e0.empty()) {
+      os << "e0 = [";
+      for (size_t i = 0; i < s.e0.size(); ++i) os << (i ? ", " : "") << s.e0[i];
+      os << "]\n";
+    }
+    if (s.T0) os << "T0 = " << *s.T0 << "\n";
+  }
+  os << "\n[numerics]\n";
+  if (s.frictional) {
+    const auto& f = *s.frictional;
+    os << "p_min = " << f.p_min << "\nstol = " << f.stol << "\nftol = " << f.ftol << "\nmax_substeps = " << f.max_substeps
+       << "\n";
+  }
+  if (s.collisional) os << "vs_gap = " << s.collisional->vs_gap << "\n";
+  return os.str();
+}
+
+}  // namespace granflow::io

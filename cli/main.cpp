@@ -1,0 +1,32 @@
+// granflow: one program for element tests, calibration, MPM runs, benchmarks and figures.
+#include <cstdio>
+#include <exception>
+#include <iostream>
+
+#include "commands.hpp"
+#include "io/input_error.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "granflow: granular flow through the solid-like to fluid-like transition\n"
+      "(SIMSAND-type frictional stress + kinetic-theory collisional stress)"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "granflow 0.1.0");
+  granflow::cli::register_element(app);
+  granflow::cli::register_figures(app);
+  granflow::cli::register_calibrate(app);
+  granflow::cli::register_mpm(app);
+  granflow::cli::register_bench(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const granflow::io::InputError& e) {
+    std::cerr << "granflow: error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "granflow: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

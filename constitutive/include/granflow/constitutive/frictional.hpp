@@ -1,0 +1,425 @@
+// Frictional part: SIMSAND-type critical-state elastoplasticity (MODEL.md 3).
+//
+// One rate law (frictional_rate) serves every driver: the CVODE element test integrates it
+// directly; the incremental update (frictional_increment) integrates it over a strain
+// increment with the explicit modified-Euler substepping of Sloan et al. (2001), local error
+// control and yield-surface drift correction. The MPM calls the incremental update.
+#pragma once
+
+#include <cmath>
+
+#include "config.hpp"
+#include "params.hpp"
+#include "tensor.hpp"
+
+namespace granflow {
+
+template <class S>
+struct FrictionalState {
+  Mat3<S> sigma = Mat3<S>::Zero();  // frictional Cauchy stress, tension-positive
+  S eps_pd = 0;                     // accumulated equivalent plastic deviatoric strain
+  S e = 0;                          // void ratio
+};
+
+// ---- Elasticity, Eq. (13) -------------------------------------------------------------
+
+template <class S>
+struct ElasticModuli {
+  S K, G;
+};
+
+// K_f = K0 p_at (2.97 - e)^2 / (1 + e) (p/p_at)^n with p floored at p_min (MODEL.md 3.2, A5);
+// G_f = 3 K (1 - 2 nu) / (2 (1 + nu)).
+template <class S>
+GF_HDI ElasticModuli<S> elastic_moduli(const FrictionalParams<S>& m, S p, S e) {
+  const S pe = p > m.p_min ? p : m.p_min;
+  const S a = S(kVoidRatioMax) - e;
+  const S K = m.K0 * m.p_at * a * a / (S(1) + e) * std::pow(pe / m.p_at, m.n);
+  return {K, S(3) * K * (S(1) - S(2) * m.nu) / (S(2) * (S(1) + m.nu))};
+}
+
+// C^e : X = K tr(X) I + 2 G dev(X)
+template <class S>
+GF_HDI Mat3<S> apply_elastic(const ElasticModuli<S>& c, const Mat3In<S>& X) {
+  return c.K * trace(X) * identity3<S>() + S(2) * c.G * dev(X);
+}
+
+// ---- Critical state and state-dependent angles, Eqs. (16)-(18) --------------------------
+
+// e_c = e_ref exp(-lambda_c (p/p_at)^xi), Eq. (16); p floored at p_min.
+template <class S>
+GF_HDI S critical_void_ratio(const FrictionalParams<S>& m, S p) {
+  const S pe = p > m.p_min ? p : m.p_min;
+  return m.e_ref * std::exp(-m.lambda_c * std::pow(pe / m.p_at, m.xi));
+}
+
+// d e_c / d p (zero below the floor, where e_c is frozen).
+template <class S>
+GF_HDI S critical_void_ratio_dp(const FrictionalParams<S>& m, S p) {
+  if (!(p > m.p_min)) return S(0);
+  const S x = p / m.p_at;
+  return -critical_void_ratio(m, p) * m.lambda_c * m.xi * std::pow(x, m.xi - S(1)) / m.p_at;
+}
+
+// sin(phi) from tan(phi) and its derivative d sin / d tan.
+template <class S>
+GF_HDI S sin_of_tan(S t) {
+  return t / std::sqrt(S(1) + t * t);
+}
+template <class S>
+GF_HDI S dsin_dtan(S t) {
+  const S r = S(1) + t * t;
+  return S(1) / (r * std::sqrt(r));
+}
+
+// ---- Lode-angle shape g(theta), MODEL.md 3.4 (A1) --------------------------------------
+
+// Smooth Mohr-Coulomb shape of Sheng, Sloan & Yu (2000) and its partial derivatives
+// with respect to x = sin(3 theta) and to sin(phi).
+template <class S>
+struct LodeFactor {
+  S g, dg_dx, dg_dsin;
+};
+
+template <LodeShape L, class S>
+GF_HDI LodeFactor<S> lode_factor(S x, S sin_phi) {
+  if constexpr (L == LodeShape::Circular) {
+    return {S(1), S(0), S(0)};
+  } else {
+    const S c = (S(3) - sin_phi) / (S(3) + sin_phi);
+    const S c2 = c * c, c4 = c2 * c2;
+    const S den = S(1) + c4 - (S(1) - c4) * x;
+    const S g = std::pow(S(2) * c4 / den, S(0.25));
+    const S dg_dx = S(0.25) * g * (S(1) - c4) / den;
+    // d ln g / d c = 1/c - c^3 (1 + x) / den ; d c / d sin = -6 / (3 + sin)^2
+    const S dlng_dc = S(1) / c - c2 * c * (S(1) + x) / den;
+    const S dc_ds = S(-6) / ((S(3) + sin_phi) * (S(3) + sin_phi));
+    return {g, dg_dx, g * dlng_dc * dc_ds};
+  }
+}
+
+// ---- Stress-state kinematics shared by yield function and flow rule --------------------
+
+template <class S>
+struct StressInvariants {
+  S p;            // mean pressure (compression +)
+  S q;            // sqrt(3 J2)
+  S J2;
+  S x;            // sin(3 theta)
+  Mat3<S> s;      // deviator
+  Mat3<S> s_hat;  // unit deviatoric direction, q(s_hat) = 1
+};
+
+// `direction_hint` supplies the deviatoric direction when q vanishes (the cone vertex:
+// MODEL.md 3.6 takes it from dev(D) for the first increment).
+template <class S>
+GF_HDI StressInvariants<S> stress_invariants(const Mat3<S>& sigma, const Mat3In<S>& direction_hint) {
+  StressInvariants<S> inv;
+  inv.p = mean_pressure(sigma);
+  inv.s = dev(sigma);
+  inv.J2 = S(0.5) * ddot(inv.s, inv.s);
+  inv.q = std::sqrt(S(3) * inv.J2);
+  const S scale = inv.p > S(0) ? inv.p : S(1);
+  if (inv.q > S(1e-10) * scale) {
+    inv.x = sin3theta(inv.s, inv.J2);
+    inv.s_hat = inv.s / inv.q;
+  } else {
+    const Mat3<S> h = dev(direction_hint);
+    const S qh = std::sqrt(S(1.5) * ddot(h, h));
+    inv.s_hat = qh > S(0) ? Mat3<S>(h / qh) : Mat3<S>(Mat3<S>::Zero());
+    inv.x = S(0);
+    inv.q = S(0);
+  }
+  return inv;
+}
+
+// Everything of the yield function (Eq. 14, corrected: M_p) and the flow rule (Eq. 15,
+// non-associated) at one state, with the derivatives the consistency condition needs.
+template <class S>
+struct YieldState {
+  ElasticModuli<S> C;
+  S r;        // q / p
+  S e_c;      // critical void ratio
+  S Gm;       // g(theta; phi_p) M_p : the ratio the cone hardens towards
+  S h, dh;    // h = eps/(k_p + eps), dh/deps
+  S f;        // yield function r - Gm h
+  S Dg;       // dilatancy A_d (g(theta; phi_pt) M_pt - r)
+  S dGm_de;   // partial derivative of Gm in e at fixed p
+  Mat3<S> n;  // df/dsigma (includes the p-dependence of e_c and the Lode angle)
+  Mat3<S> m;  // plastic flow direction: deps^p = dLambda m
+};
+
+template <LodeShape L, class S>
+GF_HDI YieldState<S> yield_state(const FrictionalParams<S>& mp, const Mat3In<S>& sigma, S eps_pd, S e,
+                                 const Mat3In<S>& direction_hint) {
+  YieldState<S> y;
+  const StressInvariants<S> inv = stress_invariants(sigma, direction_hint);
+  const S pe = inv.p > mp.p_min ? inv.p : mp.p_min;
+  y.C = elastic_moduli(mp, inv.p, e);
+  y.r = inv.q / pe;
+
+  // Eqs. (16)-(18): state-dependent peak and phase-transformation angles.
+  y.e_c = critical_void_ratio(mp, inv.p);
+  const S tan_c = std::tan(mp.phi_c);
+  const S ratio = y.e_c / e;
+  const S tan_p = std::pow(ratio, mp.n_p) * tan_c;
+  const S tan_pt = std::pow(ratio, -mp.n_d) * tan_c;
+  const S sin_p = sin_of_tan(tan_p), sin_pt = sin_of_tan(tan_pt);
+  const S M_p = stress_ratio_of_angle(sin_p);
+  const S M_pt = stress_ratio_of_angle(sin_pt);
+  const LodeFactor<S> gp = lode_factor<L>(inv.x, sin_p);
+  const LodeFactor<S> gpt = lode_factor<L>(inv.x, sin_pt);
+
+  y.Gm = gp.g * M_p;
+  y.h = eps_pd / (mp.k_p + eps_pd);
+  y.dh = mp.k_p / ((mp.k_p + eps_pd) * (mp.k_p + eps_pd));
+  y.f = y.r - y.Gm * y.h;
+  y.Dg = mp.A_d * (gpt.g * M_pt - y.r);
+
+  // d Gm / d sin(phi_p) and the chain through tan(phi_p)(e, e_c(p)).
+  const S dM_ds = S(18) / ((S(3) - sin_p) * (S(3) - sin_p));
+  const S dGm_ds = gp.g * dM_ds + M_p * gp.dg_dsin;
+  const S dGm_dtan = dGm_ds * dsin_dtan(tan_p);
+  const S dtan_dec = mp.n_p * tan_p / y.e_c;
+  const S dGm_dp = dGm_dtan * dtan_dec * critical_void_ratio_dp(mp, inv.p);
+  y.dGm_de = dGm_dtan * (-mp.n_p * tan_p / e);
+
+  // n = d r / d sigma - h d Gm / d sigma;  d p / d sigma = -I/3, d q / d sigma = 3/2 s_hat.
+  const Mat3<S> I = identity3<S>();
+  const Mat3<S> dr = (S(1.5) / pe) * inv.s_hat + (inv.p > mp.p_min ? y.r / (S(3) * pe) : S(0)) * I;
+  const Mat3<S> dGm = M_p * gp.dg_dx * dsin3theta_dsigma(inv.s, inv.J2) - (dGm_dp / S(3)) * I;
+  y.n = dr - y.h * dGm;
+  // Flow rule (15): d eps^p = dLambda [-(1/3) Dg I + 3/2 s_hat] (radial deviatoric flow, A3).
+  y.m = (-y.Dg / S(3)) * I + S(1.5) * inv.s_hat;
+  return y;
+}
+
+// ---- Rate law ---------------------------------------------------------------------------
+
+template <class S>
+struct FrictionalRate {
+  Mat3<S> dsigma;  // stress increment (or rate)
+  S deps_pd;       // plastic multiplier increment
+  bool plastic;
+};
+
+// Stress response to a strain increment deps (or a rate D) at a frozen state, with the full
+// consistency condition: df = n:dsigma - Gm h' dLambda - h dGm/de de = 0 (MODEL.md 3.6, rate
+// form), de = (1 + e) tr(deps). Plastic when on the surface (f >= -ftol_load) and loading.
+template <LodeShape L, class S>
+GF_HDI FrictionalRate<S> frictional_rate(const FrictionalParams<S>& mp, const Mat3In<S>& sigma, S eps_pd,
+                                         S e, const Mat3In<S>& deps, S ftol_load) {
+  const YieldState<S> y = yield_state<L>(mp, sigma, eps_pd, e, deps);
+  const Mat3<S> dsig_e = apply_elastic(y.C, deps);
+  FrictionalRate<S> out{dsig_e, S(0), false};
+  if (y.f < -ftol_load) return out;
+  const S de = (S(1) + e) * trace(deps);
+  const S numer = ddot(y.n, dsig_e) - y.h * y.dGm_de * de;
+  if (!(numer > S(0))) return out;
+  const Mat3<S> Cm = apply_elastic(y.C, y.m);
+  const S denom = ddot(y.n, Cm) + y.Gm * y.dh;
+  if (!(denom > S(0))) return out;  // no admissible plastic solution: elastic predictor kept
+  const S dL = numer / denom;
+  out.dsigma = dsig_e - dL * Cm;
+  out.deps_pd = dL;
+  out.plastic = true;
+  return out;
+}
+
+// Yield function value alone.
+template <LodeShape L, class S>
+GF_HDI S yield_function(const FrictionalParams<S>& mp, const Mat3In<S>& sigma, S eps_pd, S e) {
+  return yield_state<L>(mp, sigma, eps_pd, e, Mat3<S>::Zero()).f;
+}
+
+// Initial hardening variable putting an initial stress on f = 0 (MODEL.md 3.4, A4):
+// eps_pd0 = k_p r0 / (g M_p - r0). Returns a negative value when r0 >= g M_p (inadmissible).
+template <LodeShape L, class S>
+GF_HDI S initial_plastic_strain(const FrictionalParams<S>& mp, const Mat3In<S>& sigma, S e) {
+  const YieldState<S> y = yield_state<L>(mp, sigma, S(0), e, Mat3<S>::Zero());
+  if (!(y.r < y.Gm)) return S(-1);
+  return mp.k_p * y.r / (y.Gm - y.r);
+}
+
+// ---- Incremental update (the one the MPM uses) -----------------------------------------
+
+namespace detail {
+
+template <class S>
+GF_HDI S stress_norm(const Mat3<S>& a) {
+  return std::sqrt(ddot(a, a));
+}
+
+// Consistent drift correction back to f = 0 (Sloan et al. 2001, Sect. 4): a few Newton steps
+// along C^e m at fixed e; falls back to a step along n when it diverges.
+template <LodeShape L, class S>
+GF_HDI void correct_drift(const FrictionalParams<S>& mp, Mat3<S>& sigma, S& eps_pd, S e,
+                          const Mat3In<S>& hint) {
+  for (int it = 0; it < 6; ++it) {
+    const YieldState<S> y = yield_state<L>(mp, sigma, eps_pd, e, hint);
+    if (!(std::fabs(y.f) > mp.ftol)) return;
+    const Mat3<S> Cm = apply_elastic(y.C, y.m);
+    const S denom = ddot(y.n, Cm) + y.Gm * y.dh;
+    Mat3<S> s_new;
+    S k_new = eps_pd;
+    if (denom > S(0)) {
+      const S dL = y.f / denom;
+      s_new = sigma - dL * Cm;
+      k_new = eps_pd + dL;
+    } else {
+      s_new = sigma - (y.f / ddot(y.n, y.n)) * y.n;
+    }
+    const S f_new = yield_state<L>(mp, s_new, k_new > S(0) ? k_new : S(0), e, hint).f;
+    if (!(std::fabs(f_new) < std::fabs(y.f))) {
+      s_new = sigma - (y.f / ddot(y.n, y.n)) * y.n;  // normal correction
+      k_new = eps_pd;
+    }
+    sigma = s_new;
+    eps_pd = k_new > S(0) ? k_new : S(0);
+  }
+}
+
+// Elastic integration over deps with the pressure-dependent moduli (two-stage Heun).
+template <class S>
+GF_HDI Mat3<S> elastic_predictor(const FrictionalParams<S>& mp, const Mat3In<S>& sigma, S e, S e_end,
+                                 const Mat3In<S>& deps) {
+  const Mat3<S> d1 = apply_elastic(elastic_moduli(mp, mean_pressure(sigma), e), deps);
+  const Mat3<S> d2 = apply_elastic(elastic_moduli(mp, mean_pressure<S>(sigma + d1), e_end), deps);
+  return sigma + S(0.5) * (d1 + d2);
+}
+
+}  // namespace detail
+
+// Integrates the rate law over the strain increment deps (tension-positive, no spin):
+// 1. elastic predictor; if it stays inside the surface, done.
+// 2. otherwise find the fraction alpha at which the elastic path meets f = 0 (regula falsi),
+// 3. substep the rest with modified Euler, local error control (stol) and drift correction.
+// Near zero pressure (free surface, liquefied material) the moduli and e_c are evaluated at
+// p_min, which also rounds the cone apex (q <= g M_p h p_min below p_min); whenever the mean
+// stress reaches zero the tension cut-off sets sigma_f = 0: a cohesionless skeleton carries
+// no tension (MODEL.md 3.2, A5). A zero-stress state restarts elastically from zero.
+template <LodeShape L, class S>
+GF_HDI UpdateInfo frictional_increment(const FrictionalParams<S>& mp, FrictionalState<S>& st,
+                                       const Mat3In<S>& deps) {
+  UpdateInfo inf;
+  const S e0 = st.e;
+  const S e1 = (S(1) + e0) * std::exp(trace(deps)) - S(1);  // exact volumetric update (3.7)
+  if (!(e0 > S(0)) || !(e0 < S(kVoidRatioMax)) || !(e1 > S(0)) || !(e1 < S(kVoidRatioMax))) {
+    inf.flags |= info::kInadmissible;
+    return inf;
+  }
+  Mat3<S> sigma = st.sigma;
+  S eps = st.eps_pd;
+  const S p0 = mean_pressure(sigma);
+  if (!(p0 > S(0))) sigma = Mat3<S>::Zero();  // a cut-off state carries no stress
+
+  if (!(p0 > mp.p_min)) inf.flags |= info::kPressureFloor;
+
+  // 1. elastic predictor
+  const S f0 = yield_state<L>(mp, sigma, eps, e0, deps).f;
+  const Mat3<S> trial = detail::elastic_predictor(mp, sigma, e0, e1, deps);
+  if (!(mean_pressure(trial) > S(0))) {  // the skeleton opens: tension cut-off (MODEL.md 3.2, A5)
+    st.sigma = Mat3<S>::Zero();
+    st.eps_pd = eps;
+    st.e = e1;
+    inf.flags |= info::kTensionCutoff;
+    inf.substeps = 1;
+    return inf;
+  }
+  const S f1 = yield_state<L>(mp, trial, eps, e1, deps).f;
+  S alpha = S(0);
+  if (!(f1 > mp.ftol)) {
+    sigma = trial;
+    inf.substeps = 1;
+  } else {
+    // 2. elastic part of a crossing increment
+    if (f0 < -mp.ftol) {
+      S a0 = S(0), a1 = S(1), fa0 = f0, fa1 = f1;
+      for (int it = 0; it < 40; ++it) {
+        alpha = a1 - fa1 * (a1 - a0) / (fa1 - fa0);
+        const S ea = (S(1) + e0) * std::exp(alpha * trace(deps)) - S(1);
+        const S fa = yield_state<L>(mp, detail::elastic_predictor<S>(mp, sigma, e0, ea, alpha * deps), eps,
+                                    ea, deps)
+                         .f;
+        if (std::fabs(fa) <= mp.ftol) break;
+        if ((fa < S(0)) == (fa0 < S(0))) {
+          a0 = alpha; fa0 = fa; fa1 *= S(0.5);  // Illinois modification
+        } else {
+          a1 = alpha; fa1 = fa; fa0 *= S(0.5);
+        }
+      }
+      const S ea = (S(1) + e0) * std::exp(alpha * trace(deps)) - S(1);
+      sigma = detail::elastic_predictor<S>(mp, sigma, e0, ea, alpha * deps);
+    }
+    // 3. substepping of the plastic part
+    const S ftol_load = S(100) * mp.ftol + S(1e-6);
+    const Mat3<S> d_rest = (S(1) - alpha) * deps;
+    S T = S(0), dT = S(1);
+    S e = (S(1) + e0) * std::exp(alpha * trace(deps)) - S(1);
+    const S trd = trace(d_rest);
+    int n = 0;
+    while (T < S(1)) {
+      if (++n > mp.max_substeps) {
+        inf.flags |= info::kSubstepLimit;
+        dT = S(1) - T;  // finish in one go; accuracy flagged
+      }
+      const Mat3<S> dd = dT * d_rest;
+      const S e_mid = (S(1) + e) * std::exp(dT * trd) - S(1);
+      const FrictionalRate<S> r1 = frictional_rate<L>(mp, sigma, eps, e, dd, ftol_load);
+      const FrictionalRate<S> r2 =
+          frictional_rate<L>(mp, Mat3<S>(sigma + r1.dsigma), eps + r1.deps_pd, e_mid, dd, ftol_load);
+      const Mat3<S> s_new = sigma + S(0.5) * (r1.dsigma + r2.dsigma);
+      const S k_new = eps + S(0.5) * (r1.deps_pd + r2.deps_pd);
+      const S scale = detail::stress_norm(s_new) + mp.p_min;
+      S R = S(0.5) * detail::stress_norm<S>(r2.dsigma - r1.dsigma) / scale;
+      const S Rk = S(0.5) * std::fabs(r2.deps_pd - r1.deps_pd) / (k_new + mp.k_p);
+      R = R > Rk ? R : Rk;
+      if (!(R == R)) {  // NaN
+        inf.flags |= info::kNonFinite;
+        return inf;
+      }
+      const S fac = R > S(0) ? S(0.9) * std::sqrt(mp.stol / R) : S(2);
+      if (R > mp.stol && n <= mp.max_substeps && dT > S(1e-9)) {
+        dT *= fac < S(0.1) ? S(0.1) : fac;
+        continue;
+      }
+      sigma = s_new;
+      eps = k_new;
+      e = e_mid;
+      if (mean_pressure(sigma) <= S(0)) {  // liquefied within the increment: tension cut-off
+        sigma = Mat3<S>::Zero();
+        inf.flags |= info::kTensionCutoff;
+        break;
+      }
+      if (r1.plastic || r2.plastic) detail::correct_drift<L>(mp, sigma, eps, e, deps);
+      T += dT;
+      dT *= fac > S(2) ? S(2) : (fac < S(0.1) ? S(0.1) : fac);
+      if (dT > S(1) - T) dT = S(1) - T;
+    }
+    inf.substeps = n;
+  }
+  if (!all_finite(sigma) || !std::isfinite(eps)) {
+    inf.flags |= info::kNonFinite;
+    return inf;
+  }
+  st.sigma = sigma;
+  st.eps_pd = eps;
+  st.e = e1;
+  return inf;
+}
+
+// Full update from a velocity gradient: Jaumann rotation (Hughes-Winget, MODEL.md 3.1 A6),
+// then the material response to d eps = D dt.
+template <LodeShape L, class S>
+GF_HDI UpdateInfo frictional_update(const FrictionalParams<S>& mp, FrictionalState<S>& st, const Mat3In<S>& grad_v,
+                                    S dt) {
+  const Mat3<S> W = skew(grad_v);
+  const Mat3<S> Q = hughes_winget_rotation(W, dt);
+  FrictionalState<S> trial = st;
+  trial.sigma = Q * st.sigma * Q.transpose();
+  const UpdateInfo inf = frictional_increment<L>(mp, trial, Mat3<S>(sym(grad_v) * dt));
+  if (inf.ok()) st = trial;
+  return inf;
+}
+
+}  // namespace granflow
