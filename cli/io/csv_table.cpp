@@ -1,0 +1,130 @@
+#include "csv_table.hpp"
+
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <tuple>
+#include <utility>
+
+#include <libfccp/csv.h>
+
+#include "input_error.hpp"
+
+namespace granflow::io {
+
+namespace {
+
+using Comment = ::io::single_line_comment<'#'>;
+template <unsigned N>
+using Reader = ::io::CSVReader<N, ::io::trim_chars<' ', '\t', '\r'>, ::io::double_quote_escape<',', '"'>,
+                               ::io::throw_on_overflow, Comment>;
+
+std::string header_of(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line))
+    if (!line.empty() && line[0] != '#') return line;
+  return "";
+}
+
+[[noreturn]] void rethrow_fccp(const std::string& path, const ::io::error::base& err) {
+  std::string msg = err.what();
+  if (dynamic_cast<const ::io::error::missing_column_in_header*>(&err)) {
+    const std::string header = header_of(path);
+    msg += " Header found: '" + header + "'";
+    if (header.find(';') != std::string::npos || header.find('\t') != std::string::npos)
+      msg += " (the delimiter must be a comma)";
+  }
+  if (auto* fl = dynamic_cast<const ::io::error::with_file_line*>(&err); fl && fl->file_line > 0)
+    throw InputError(where(path, fl->file_line) + msg);
+  throw InputError(where(path) + msg);
+}
+
+double parse_cell(const char* cell, const std::string& path, long line, const std::string& column) {
+  if (!cell || !*cell) throw InputError(where(path, line) + "column '" + column + "': empty cell");
+  errno = 0;
+  char* end = nullptr;
+  const double v = std::strtod(cell, &end);
+  if (end == cell || *end != '\0')
+    throw InputError(where(path, line) + "column '" + column + "': '" + cell + "' is not a number");
+  if (!std::isfinite(v) || errno == ERANGE)
+    throw InputError(where(path, line) + "column '" + column + "': '" + cell + "' is not a finite number");
+  return v;
+}
+
+template <unsigned N, std::size_t... I>
+CsvColumns read_fixed(const std::string& path, const std::vector<std::string>& names, std::index_sequence<I...>) {
+  CsvColumns out;
+  out.file = path;
+  out.names = names;
+  out.columns.assign(N, {});
+  try {
+    Reader<N> reader(path);
+    reader.read_header(::io::ignore_extra_column, names[I]...);
+    std::array<char*, N> cells{};
+    while (reader.read_row(std::get<I>(cells)...)) {
+      const long line = static_cast<long>(reader.get_file_line());
+      for (unsigned c = 0; c < N; ++c) out.columns[c].push_back(parse_cell(cells[c], path, line, names[c]));
+      out.lines.push_back(line);
+    }
+  } catch (const ::io::error::base& err) {
+    rethrow_fccp(path, err);
+  }
+  if (out.lines.empty()) throw InputError(where(path) + "no data rows after the header");
+  return out;
+}
+
+template <unsigned N>
+CsvColumns dispatch(const std::string& path, const std::vector<std::string>& names) {
+  if constexpr (N > 16) {
+    throw InputError(where(path) + "at most 16 columns can be read at once");
+  } else {
+    if (names.size() == N) return read_fixed<N>(path, names, std::make_index_sequence<N>{});
+    return dispatch<N + 1>(path, names);
+  }
+}
+
+}  // namespace
+
+const std::vector<double>& CsvColumns::column(const std::string& name) const {
+  for (std::size_t i = 0; i < names.size(); ++i)
+    if (names[i] == name) return columns[i];
+  throw InputError(where(file) + "column '" + name + "' was not read");
+}
+
+CsvColumns read_csv_columns(const std::string& path, const std::vector<std::string>& names) {
+  if (names.empty()) throw InputError(where(path) + "no columns requested");
+  {
+    std::ifstream probe(path);
+    if (!probe) throw InputError(where(path) + "cannot open file");
+  }
+  return dispatch<1>(path, names);
+}
+
+std::vector<std::string> read_csv_text_column(const std::string& path, const std::string& name) {
+  std::vector<std::string> out;
+  try {
+    Reader<1> reader(path);
+    reader.read_header(::io::ignore_extra_column, name);
+    std::string cell;
+    while (reader.read_row(cell)) out.push_back(cell);
+  } catch (const ::io::error::base& err) {
+    rethrow_fccp(path, err);
+  }
+  return out;
+}
+
+void require_strictly_increasing(const CsvColumns& t, const std::string& name) {
+  const auto& c = t.column(name);
+  for (std::size_t i = 1; i < c.size(); ++i)
+    if (!(c[i] > c[i - 1])) {
+      std::ostringstream os;
+      os << "column '" << name << "' must increase strictly (abscissa), but " << c[i] << " follows " << c[i - 1];
+      throw InputError(where(t.file, t.lines[i]) + os.str());
+    }
+}
+
+}  // namespace granflow::io

@@ -1,0 +1,31 @@
+// Reading numeric columns from CSV files (lab data, DEM data, rate programmes) with the
+// fast C++ CSV parser (libfccp). Columns are selected by header name; a missing column, a
+// non-numeric or non-finite cell, an empty file or a wrong delimiter is an InputError that
+// names the file, the line and the column.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace granflow::io {
+
+struct CsvColumns {
+  std::string file;
+  std::vector<std::string> names;            // as requested
+  std::vector<std::vector<double>> columns;  // columns[i][row]
+  std::vector<long> lines;                   // file line of each row
+
+  const std::vector<double>& column(const std::string& name) const;
+  std::size_t rows() const { return lines.size(); }
+};
+
+// Reads the named columns (at most 16; other columns are ignored; '#' starts a comment line).
+CsvColumns read_csv_columns(const std::string& path, const std::vector<std::string>& names);
+
+// Reads one text column (e.g. a label used to split a file into curves).
+std::vector<std::string> read_csv_text_column(const std::string& path, const std::string& name);
+
+// Errors unless the column increases strictly (abscissae of a curve).
+void require_strictly_increasing(const CsvColumns& t, const std::string& name);
+
+}  // namespace granflow::io
