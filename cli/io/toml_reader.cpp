@@ -1,5 +1,6 @@
 #include "toml_reader.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -82,7 +83,34 @@ std::string type_name(const toml::node& n) {
     default: return "a date/time";
   }
 }
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
 }  // namespace
+
+void TomlTable::fail_missing(const std::string& key, const std::string& what) const {
+  std::string close;
+  const std::size_t max_dist = std::max<std::size_t>(1, key.size() / 3);
+  for (const auto& [k, v] : *table_) {
+    const std::string present(k.str());
+    if (!used_.count(present) && edit_distance(present, key) <= max_dist)
+      close += (close.empty() ? "'" : ", '") + dotted(present) + "'";
+  }
+  const std::string hint = close.empty() ? "" : " (similar keys present: " + close + "; a typo?)";
+  fail(key, "required key is missing (" + what + ")" + hint);
+}
 
 std::optional<double> TomlTable::optional_number(const std::string& key, Bounds b) {
   const toml::node* n = node(key);
@@ -100,7 +128,7 @@ std::optional<double> TomlTable::optional_number(const std::string& key, Bounds 
 
 double TomlTable::number(const std::string& key, Bounds b) {
   auto v = optional_number(key, b);
-  if (!v) fail(key, "required key is missing (" + b.describe() + ")");
+  if (!v) fail_missing(key, b.describe());
   return *v;
 }
 
@@ -119,7 +147,7 @@ long TomlTable::integer_or(const std::string& key, long fallback, long lo, long 
 }
 
 long TomlTable::integer(const std::string& key, long lo, long hi) {
-  if (!has(key)) fail(key, "required key is missing (an integer)");
+  if (!has(key)) fail_missing(key, "an integer");
   return integer_or(key, 0, lo, hi);
 }
 
@@ -131,7 +159,7 @@ std::string TomlTable::string_or(const std::string& key, const std::string& fall
 }
 
 std::string TomlTable::string(const std::string& key) {
-  if (!has(key)) fail(key, "required key is missing (a string)");
+  if (!has(key)) fail_missing(key, "a string");
   return string_or(key, "");
 }
 
@@ -154,7 +182,7 @@ bool TomlTable::boolean_or(const std::string& key, bool fallback) {
 
 std::vector<double> TomlTable::numbers(const std::string& key, Bounds b, bool allow_scalar) {
   const toml::node* n = node(key);
-  if (!n) fail(key, "required key is missing (an array of numbers)");
+  if (!n) fail_missing(key, "an array of numbers");
   std::vector<double> out;
   auto check = [&](const toml::node& v) {
     if (!v.is_number()) fail(key, "expected numbers, got " + type_name(v));

@@ -54,6 +54,7 @@ class TomlTable {
   void finish() const;
 
   [[noreturn]] void fail(const std::string& key, const std::string& message) const;
+  [[noreturn]] void fail_missing(const std::string& key, const std::string& what) const;
   std::string dotted(const std::string& key) const { return prefix_.empty() ? key : prefix_ + "." + key; }
   const std::string& file() const { return file_; }
   const toml::table& raw() const { return *table_; }

@@ -1,0 +1,367 @@
+// Frictional part (MODEL.md 3): reference values typed from MODEL.md or recomputed here by hand.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+
+#include "reference.hpp"
+
+using namespace granflow;
+using granflow::test::kDeg;
+constexpr auto SMC = LodeShape::SmoothMohrCoulomb;
+constexpr auto CIRC = LodeShape::Circular;
+
+namespace {
+
+double M_of(double phi) { return 6 * std::sin(phi) / (3 - std::sin(phi)); }
+
+// Independent transcription of Eq. (13).
+double K_eq13(const FrictionalParams<double>& m, double p, double e) {
+  return m.K0 * m.p_at * (2.97 - e) * (2.97 - e) / (1 + e) * std::pow(p / m.p_at, m.n);
+}
+
+FrictionalState<double> state(const Mat3<double>& sigma, double eps, double e) {
+  FrictionalState<double> s;
+  s.sigma = sigma;
+  s.eps_pd = eps;
+  s.e = e;
+  return s;
+}
+
+}  // namespace
+
+TEST(Frictional, DerivedConstantsOfTheParameterTables) {  // MODEL.md 7, derived constants
+  EXPECT_NEAR(M_of(30 * kDeg), 1.20000, 5e-6);
+  EXPECT_NEAR(M_of(23 * kDeg), 0.89848, 5e-6);
+  EXPECT_NEAR(M_of(19.8 * kDeg), 0.76371, 5e-6);
+  EXPECT_NEAR(M_of(38 * kDeg), 1.54926, 5e-6);
+  EXPECT_DOUBLE_EQ(stress_ratio_of_angle(std::sin(30 * kDeg)), M_of(30 * kDeg));
+}
+
+TEST(Frictional, StateDependentAnglesMatchTheWorkedExample) {
+  // MODEL.md 7: Table 1, e = 0.80, p = 100 kPa.
+  const auto m = test::table1();
+  const auto y = yield_state<CIRC>(m, test::isotropic(100e3), 0.0, 0.80, Mat3<double>::Zero());
+  EXPECT_NEAR(y.e_c, 0.9168, 5e-5);
+  EXPECT_NEAR(y.Gm, 1.3523, 5e-5);  // g = 1: Gm = M_p
+  const double M_pt = y.Dg / m.A_d + y.r;
+  EXPECT_NEAR(M_pt, 1.0586, 5e-5);
+  EXPECT_NEAR(y.C.K, 3.944e7, 0.001e7);
+  EXPECT_NEAR(y.C.G, 2.716e7, 0.001e7);
+}
+
+TEST(Frictional, CriticalPressureOfConstantVolumeShear) {
+  // MODEL.md 6.4: e_c(p_cs) = e, values 1629, 824.1, 237.5 kPa for Table 1.
+  const auto m = test::table1();
+  const double expected[] = {1629e3, 824.1e3, 237.5e3};
+  const double e0[] = {0.80, 0.85, 0.90};
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(critical_void_ratio(m, expected[i]), e0[i], 2e-4) << "e0 = " << e0[i];
+  }
+  EXPECT_NEAR(critical_void_ratio(test::table3_collapse().f, 12.82e3), 0.95, 2e-4);
+}
+
+TEST(Frictional, TangentModuliFollowEq13) {
+  auto m = test::table1();
+  for (double p : {1e3, 50e3, 100e3, 400e3}) {
+    for (double e : {0.6, 0.8, 0.95}) {
+      // Opened cone (eps_pd >> k_p) and an isotropic state: small increments stay elastic.
+      auto s = state(test::isotropic(p), 0.05, e);
+      const double dev = 1e-10;
+      Mat3<double> deps = Mat3<double>::Zero();
+      deps.diagonal().setConstant(-dev / 3);  // volumetric compression dev
+      const auto inf = frictional_increment<SMC>(m, s, deps);
+      ASSERT_TRUE(inf.ok());
+      const double K = (mean_pressure(s.sigma) - p) / dev;
+      EXPECT_NEAR(K / K_eq13(m, p, e), 1.0, 1e-6) << "p = " << p << " e = " << e;
+
+      auto s2 = state(test::isotropic(p), 0.05, e);
+      Mat3<double> dg = Mat3<double>::Zero();
+      dg(0, 1) = dg(1, 0) = 0.5e-10;  // engineering shear strain 1e-10
+      frictional_increment<SMC>(m, s2, dg);
+      const double G = s2.sigma(0, 1) / 1e-10;
+      const double G_expected = 3 * K_eq13(m, p, e) * (1 - 2 * m.nu) / (2 * (1 + m.nu));
+      EXPECT_NEAR(G / G_expected, 1.0, 1e-6);
+    }
+  }
+}
+
+TEST(Frictional, LodeFactorIsOneInCompressionAndCInExtension) {
+  const double sphi = std::sin(30 * kDeg);
+  const double c = (3 - sphi) / (3 + sphi);
+  EXPECT_NEAR(lode_factor<SMC>(1.0, sphi).g, 1.0, 1e-14);
+  EXPECT_NEAR(lode_factor<SMC>(-1.0, sphi).g, c, 1e-14);
+  // Triaxial compression of a tension-positive stress gives sin(3 theta) = +1.
+  Mat3<double> s = test::isotropic(100e3);
+  s(2, 2) -= 60e3;
+  const auto inv = stress_invariants(s, Mat3<double>::Zero());
+  EXPECT_NEAR(inv.x, 1.0, 1e-12);
+  s = test::isotropic(100e3);
+  s(2, 2) += 60e3;
+  EXPECT_NEAR(stress_invariants(s, Mat3<double>::Zero()).x, -1.0, 1e-12);
+  // Derivatives against central differences.
+  const double h = 1e-6;
+  for (double x : {-0.7, 0.0, 0.4}) {
+    const auto L = lode_factor<SMC>(x, sphi);
+    EXPECT_NEAR(L.dg_dx, (lode_factor<SMC>(x + h, sphi).g - lode_factor<SMC>(x - h, sphi).g) / (2 * h), 1e-8);
+    EXPECT_NEAR(L.dg_dsin, (lode_factor<SMC>(x, sphi + h).g - lode_factor<SMC>(x, sphi - h).g) / (2 * h), 1e-8);
+  }
+}
+
+TEST(Frictional, YieldGradientMatchesFiniteDifferences) {
+  // n = df/dsigma at fixed e, eps_pd, including the p-dependence of e_c and the Lode angle.
+  const auto m = test::table1();
+  Mat3<double> sig;
+  sig << -120e3, 15e3, 4e3, 15e3, -90e3, -7e3, 4e3, -7e3, -60e3;
+  const double eps = 0.004, e = 0.83;
+  const auto y = yield_state<SMC>(m, sig, eps, e, Mat3<double>::Zero());
+  for (int i = 0; i < 3; ++i)
+    for (int j = i; j < 3; ++j) {
+      const double h = 1.0;  // Pa
+      Mat3<double> d = Mat3<double>::Zero();
+      d(i, j) += h / (i == j ? 1 : 2);
+      d(j, i) += i == j ? 0 : h / 2;
+      const double fd = (yield_function<SMC>(m, Mat3<double>(sig + d), eps, e) -
+                         yield_function<SMC>(m, Mat3<double>(sig - d), eps, e)) / (2 * h);
+      // the symmetric perturbation of (i,j) and (j,i) measures n_ij for a symmetric n
+      EXPECT_NEAR(y.n(i, j), fd, 1e-9 + 1e-5 * std::fabs(fd)) << i << j;
+    }
+  // d Gm / d e at fixed p
+  const double he = 1e-6;
+  const auto yp = yield_state<SMC>(m, sig, eps, e + he, Mat3<double>::Zero());
+  const auto ym = yield_state<SMC>(m, sig, eps, e - he, Mat3<double>::Zero());
+  EXPECT_NEAR(y.dGm_de, (yp.Gm - ym.Gm) / (2 * he), 1e-6 * std::fabs(y.dGm_de) + 1e-9);
+}
+
+TEST(Frictional, RateFormKeepsTheStateOnTheSurface) {
+  // Consistency (MODEL.md 3.6 rate form): one explicit rate step of size h leaves f = O(h^2).
+  {
+    const auto m = test::table1();
+    auto s = state(test::isotropic(100e3), 0.0, 0.82);
+    Mat3<double> deps = Mat3<double>::Zero();
+    deps(0, 1) = deps(1, 0) = 2e-4;
+    deps(2, 2) = 1e-4;  // some volume change so the de term matters
+    for (int k = 0; k < 10; ++k) frictional_increment<SMC>(m, s, deps);  // load onto the surface
+    auto df = [&](double h) {
+      const Mat3<double> d = h * deps;
+      const auto r = frictional_rate<SMC>(m, s.sigma, s.eps_pd, s.e, d, 1e-6);
+      EXPECT_TRUE(r.plastic);
+      const double e1 = s.e + (1 + s.e) * trace(d);
+      return yield_function<SMC>(m, Mat3<double>(s.sigma + r.dsigma), s.eps_pd + r.deps_pd, e1) -
+             yield_function<SMC>(m, s.sigma, s.eps_pd, s.e);
+    };
+    const double ratio = df(1e-2) / df(1e-3);
+    EXPECT_GT(ratio, 60.0);  // second order: 100; a missing consistency term gives ~10
+  }
+}
+
+TEST(Frictional, UpdateEndsOnTheYieldSurfaceWhenCrossingIt) {
+  const auto m = test::table1();
+  for (double dgam : {1e-5, 1e-4, 1e-3, 1e-2}) {
+    // Start inside an opened surface so the increment crosses it part-way.
+    auto s = state(test::isotropic(100e3), 0.002, 0.85);
+    ASSERT_LT(yield_function<SMC>(m, s.sigma, s.eps_pd, s.e), -0.1);
+    Mat3<double> deps = Mat3<double>::Zero();
+    deps(0, 1) = deps(1, 0) = 0.5 * dgam;
+    deps(0, 0) = -0.2 * dgam;
+    int plastic_steps = 0;
+    const int steps = std::max(20, static_cast<int>(0.01 / dgam));
+    for (int k = 0; k < steps; ++k) {
+      const double eps_before = s.eps_pd;
+      const auto inf = frictional_increment<SMC>(m, s, deps);
+      ASSERT_TRUE(inf.ok());
+      const double f = yield_function<SMC>(m, s.sigma, s.eps_pd, s.e);
+      EXPECT_LE(f, 10 * m.ftol) << "dgamma = " << dgam << " step " << k;
+      if (s.eps_pd > eps_before) {
+        ++plastic_steps;
+        EXPECT_NEAR(f, 0.0, 10 * m.ftol) << "plastic step must end on the surface";
+      }
+    }
+    EXPECT_GT(plastic_steps, 0) << dgam;
+  }
+}
+
+TEST(Frictional, InitialPlasticStrainPutsAGeostaticStateOnTheSurface) {
+  const auto m = test::table3_collapse().f;
+  const double K0 = 1 - std::sin(m.phi_c);
+  Mat3<double> sig = Mat3<double>::Zero();
+  sig(1, 1) = -5e3;
+  sig(0, 0) = sig(2, 2) = -K0 * 5e3;
+  const double eps0 = initial_plastic_strain<SMC>(m, sig, 0.95);
+  ASSERT_GT(eps0, 0.0);
+  EXPECT_NEAR(yield_function<SMC>(m, sig, eps0, 0.95), 0.0, 1e-12);
+  // A stress ratio above the peak is reported as inadmissible.
+  sig(0, 0) = sig(2, 2) = -0.05 * 5e3;
+  EXPECT_LT(initial_plastic_strain<SMC>(m, sig, 0.95), 0.0);
+}
+
+namespace {
+
+struct TriaxialResult {
+  double q_over_p, e, e_c, p, e_min, r_at_e_min, Mpt_at_e_min;
+};
+
+// Drained triaxial compression at constant lateral stress, driven with the incremental update.
+// The lateral strain increment of each step is found by the secant method.
+TriaxialResult drained_triaxial(double e0, double p0, double axial_strain, double step) {
+  const auto m = test::table1();
+  auto s = state(test::isotropic(p0), 0.0, e0);
+  TriaxialResult out{};
+  out.e_min = e0;
+  const int n = static_cast<int>(axial_strain / step);
+  double x_prev = 0.3 * step;
+  for (int k = 0; k < n; ++k) {
+    auto lateral_residual = [&](double x, FrictionalState<double>& trial) {
+      trial = s;
+      Mat3<double> d = Mat3<double>::Zero();
+      d(2, 2) = -step;  // axial compression
+      d(0, 0) = d(1, 1) = x;
+      frictional_increment<CIRC>(m, trial, d);
+      return trial.sigma(0, 0) + p0;
+    };
+    FrictionalState<double> t0, t1;
+    double x0 = x_prev, x1 = x_prev * 1.01 + 1e-9;
+    double r0 = lateral_residual(x0, t0), r1 = lateral_residual(x1, t1);
+    for (int it = 0; it < 50 && std::fabs(r1) > 1e-6 * p0; ++it) {
+      const double x2 = x1 - r1 * (x1 - x0) / (r1 - r0);
+      x0 = x1; r0 = r1;
+      x1 = x2; r1 = lateral_residual(x1, t1);
+    }
+    s = t1;
+    x_prev = x1;
+    if (s.e < out.e_min) {
+      out.e_min = s.e;
+      const auto y = yield_state<CIRC>(m, s.sigma, s.eps_pd, s.e, Mat3<double>::Zero());
+      out.r_at_e_min = y.r;
+      out.Mpt_at_e_min = y.Dg / m.A_d + y.r;
+    }
+  }
+  const double p = mean_pressure(s.sigma);
+  out.q_over_p = deviatoric_q(s.sigma) / p;
+  out.e = s.e;
+  out.e_c = critical_void_ratio(m, p);
+  out.p = p;
+  return out;
+}
+
+}  // namespace
+
+TEST(Frictional, DrainedTriaxialReachesTheCriticalState) {
+  // MODEL.md 6.4: q/p -> M (g = 1 in compression) and e -> e_c(p); dense dilates, loose contracts.
+  const double M = M_of(30 * kDeg);
+  const auto dense = drained_triaxial(0.80, 100e3, 1.5, 2e-4);
+  const auto loose = drained_triaxial(0.95, 100e3, 1.5, 2e-4);
+  for (const auto& r : {dense, loose}) {
+    EXPECT_NEAR(r.q_over_p, M, 0.01 * M);
+    EXPECT_NEAR(r.e, r.e_c, 0.01);
+    EXPECT_NEAR(r.p, 100e3 / (1 - M / 3), 2e3);  // drained path: p = p0 + q/3
+  }
+  EXPECT_GT(dense.e, 0.80);  // dilated overall
+  EXPECT_LT(loose.e, 0.95);  // contracted
+  // The dense sample first contracts; it turns to dilation where q/p crosses M_pt.
+  EXPECT_LT(dense.e_min, 0.80);
+  EXPECT_NEAR(dense.r_at_e_min, dense.Mpt_at_e_min, 0.05 * dense.Mpt_at_e_min);
+}
+
+TEST(Frictional, LooseUndrainedShearLiquefiesWithoutNaN) {
+  // Table 3 element test, e0 = 0.99 > e_ref, 500 Pa: the frictional stress vanishes near
+  // gamma = 0.004 (MODEL.md 8) and stays zero, without a NaN.
+  const auto m = test::table3_element().f;
+  auto s = state(test::isotropic(500), 0.0, 0.99);
+  const Mat3<double> L = test::simple_shear(10.0);
+  const double dt = 1e-6;
+  double gamma_liquefied = -1;
+  bool had_stress_at_1e3 = false;
+  for (int k = 1; k <= 10000; ++k) {  // gamma up to 0.1
+    const auto inf = frictional_update<SMC>(m, s, L, dt);
+    ASSERT_TRUE(inf.ok());
+    ASSERT_TRUE(all_finite(s.sigma));
+    const double gamma = k * dt * 10.0;
+    if (std::fabs(gamma - 1e-3) < 5e-6) had_stress_at_1e3 = mean_pressure(s.sigma) > 10.0;
+    if (gamma_liquefied < 0 && mean_pressure(s.sigma) <= 0.0) gamma_liquefied = gamma;
+  }
+  EXPECT_TRUE(had_stress_at_1e3);
+  EXPECT_GT(gamma_liquefied, 0.001);
+  EXPECT_LT(gamma_liquefied, 0.008);
+  EXPECT_EQ(s.sigma.norm(), 0.0);
+}
+
+TEST(Frictional, TensionCutOffAndRestartFromZeroStress) {
+  const auto m = test::table1();
+  auto s = state(test::isotropic(10.0), 0.01, 0.85);
+  Mat3<double> ext = Mat3<double>::Zero();
+  ext.diagonal().setConstant(1e-3);  // opening
+  auto inf = frictional_increment<SMC>(m, s, ext);
+  EXPECT_TRUE(inf.ok());
+  EXPECT_TRUE(inf.flags & info::kTensionCutoff);
+  EXPECT_EQ(s.sigma.norm(), 0.0);
+  // Pure shear of a stress-free skeleton creates no stress.
+  Mat3<double> shear = Mat3<double>::Zero();
+  shear(0, 1) = shear(1, 0) = 1e-3;
+  inf = frictional_increment<SMC>(m, s, shear);
+  EXPECT_TRUE(inf.ok());
+  EXPECT_EQ(s.sigma.norm(), 0.0);
+  // Compression restarts it, on or inside the (apex-rounded) surface.
+  Mat3<double> comp = Mat3<double>::Zero();
+  comp.diagonal().setConstant(-1e-5);
+  comp(0, 1) = comp(1, 0) = 1e-5;
+  inf = frictional_increment<SMC>(m, s, comp);
+  EXPECT_TRUE(inf.ok());
+  EXPECT_GT(mean_pressure(s.sigma), 0.0);
+  EXPECT_LE(yield_function<SMC>(m, s.sigma, s.eps_pd, s.e), 10 * m.ftol);
+}
+
+TEST(Frictional, InadmissibleVoidRatioIsReportedNotPropagated) {
+  const auto m = test::table1();
+  auto s = state(test::isotropic(100e3), 0.01, 2.99);
+  const Mat3<double> before = s.sigma;
+  const auto inf = frictional_increment<SMC>(m, s, Mat3<double>::Zero());
+  EXPECT_FALSE(inf.ok());
+  EXPECT_TRUE(inf.flags & info::kInadmissible);
+  EXPECT_EQ(s.sigma, before);
+}
+
+TEST(Frictional, SubsteppingConvergesWithTolerance) {
+  // The error of the incremental update against a tight-tolerance reference falls with stol.
+  auto run = [](double stol) {
+    auto m = test::table1();
+    m.stol = stol;
+    m.max_substeps = 1000000;
+    auto s = state(test::isotropic(100e3), 0.0, 0.85);
+    Mat3<double> d = Mat3<double>::Zero();
+    d(0, 1) = d(1, 0) = 5e-4;
+    for (int k = 0; k < 40; ++k) frictional_increment<SMC>(m, s, d);
+    return s.sigma;
+  };
+  const Mat3<double> ref = run(1e-10);
+  const double e1 = (run(1e-3) - ref).norm() / ref.norm();
+  const double e2 = (run(1e-5) - ref).norm() / ref.norm();
+  EXPECT_LT(e2, e1);
+  EXPECT_LT(e2, 1e-3);
+}
+
+TEST(Frictional, PureSpinRotatesStressAndKeepsInvariants) {
+  const auto m = test::table1();
+  Mat3<double> sig;
+  sig << -120e3, 15e3, 0, 15e3, -90e3, 0, 0, 0, -60e3;
+  auto s = state(sig, 0.05, 0.85);
+  const double omega = 2.0, dt = 1e-3;
+  Mat3<double> L = Mat3<double>::Zero();
+  L(0, 1) = -omega;
+  L(1, 0) = omega;  // rigid rotation about z at rate omega
+  const int n = 500;
+  for (int k = 0; k < n; ++k) ASSERT_TRUE(frictional_update<SMC>(m, s, L, dt).ok());
+  EXPECT_NEAR(mean_pressure(s.sigma), mean_pressure(sig), 1e-9 * 1e5);
+  EXPECT_NEAR(deviatoric_q(s.sigma), deviatoric_q(sig), 1e-9 * 1e5);
+  EXPECT_NEAR(det3(s.sigma), det3(sig), 1e-9 * std::fabs(det3(sig)));
+  // Against the exact rotation by omega t (Hughes-Winget is second order in omega dt).
+  const double a = omega * n * dt;
+  Mat3<double> R;
+  R << std::cos(a), -std::sin(a), 0, std::sin(a), std::cos(a), 0, 0, 0, 1;
+  const Mat3<double> exact = R * sig * R.transpose();
+  EXPECT_LT((s.sigma - exact).norm() / sig.norm(), 1e-5);
+  // No stress from nothing.
+  auto z = state(Mat3<double>::Zero(), 0.0, 0.85);
+  ASSERT_TRUE(frictional_update<SMC>(m, z, L, dt).ok());
+  EXPECT_EQ(z.sigma.norm(), 0.0);
+}

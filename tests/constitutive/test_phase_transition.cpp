@@ -1,0 +1,107 @@
+// The parallel sum of Eq. (1) and the diagnostics the figures plot.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <type_traits>
+
+#include "reference.hpp"
+
+using namespace granflow;
+using PT = PhaseTransitionModel<double>;
+using FO = FrictionalModel<double>;
+using CO = CollisionalModel<double>;
+
+TEST(PhaseTransition, FrictionalOnlyCarriesNoTemperature) {
+  static_assert(!FO::kCollisional && FO::kFrictional);
+  static_assert(CO::kCollisional && !CO::kFrictional);
+  static_assert(sizeof(FO::State) < sizeof(PT::State));
+  SUCCEED();
+}
+
+TEST(PhaseTransition, TotalStressIsTheSumOfTheParts) {
+  const auto p = test::table3_collapse();
+  PT::State pt;
+  pt.sigma_f = test::isotropic(2000);
+  pt.e = 0.95;
+  pt.s = std::sqrt(1e-4);
+  pt.eps_pd = 0.01;
+  FO::State fo{pt.sigma_f, pt.eps_pd, pt.e};
+  CO::State co{pt.e, pt.s};
+  Mat3<double> L = test::simple_shear(5.0);
+  L(1, 1) = -0.3;  // slight compaction
+  const double dt = 1e-4;
+  Mat3<double> s_pt, s_fo, s_co;
+  ASSERT_TRUE(PT::update(p, pt, L, dt, s_pt).ok());
+  ASSERT_TRUE(FO::update(p.f, fo, L, dt, s_fo).ok());
+  ASSERT_TRUE(CO::update(p.c, co, L, dt, s_co).ok());
+  EXPECT_LT((s_pt - (s_fo + s_co)).norm(), 1e-12 * s_pt.norm());
+  EXPECT_DOUBLE_EQ(pt.e, fo.e);
+  EXPECT_DOUBLE_EQ(pt.e, co.e);
+  EXPECT_DOUBLE_EQ(pt.s, co.s);
+
+  const auto d = PT::diagnostics(p, pt, sym(L));
+  EXPECT_NEAR(d.p_f, mean_pressure(s_fo), 1e-9);
+  EXPECT_NEAR(d.q_c, deviatoric_q(s_co), 1e-9 * (1 + d.q_c));
+  EXPECT_NEAR(d.K_col, d.q_c / (d.q_c + d.q_f), 1e-15);
+  EXPECT_NEAR(d.T, pt.s * pt.s, 1e-18);
+  EXPECT_GT(d.eta_c, 0.0);
+}
+
+TEST(PhaseTransition, CollisionalShareGrowsWithShearRate) {
+  // Liquefied skeleton aside, a fast-sheared element is collisional, a slow one frictional.
+  const auto p = test::table3_collapse();
+  auto share = [&](double rate) {
+    PT::State st;
+    st.sigma_f = test::isotropic(5000);
+    st.e = 0.80;  // dense: the skeleton dilates and keeps its strength
+    st.s = std::sqrt(1e-15);
+    Mat3<double> sig;
+    const double gamma_end = 0.05, dt = gamma_end / rate / 2000;
+    for (int k = 0; k < 2000; ++k) EXPECT_TRUE(PT::update(p, st, test::simple_shear(rate), dt, sig).ok());
+    return PT::diagnostics(p, st, sym(test::simple_shear(rate))).K_col;
+  };
+  const double slow = share(0.01), fast = share(1000.0);
+  EXPECT_LT(slow, 0.01);
+  EXPECT_GT(fast, slow);
+}
+
+TEST(PhaseTransition, PureSpinLeavesInvariantsAndCreatesNoStress) {
+  const auto p = test::table3_collapse();
+  PT::State st;
+  st.sigma_f << -3000, 400, 0, 400, -2000, 0, 0, 0, -1500;
+  st.eps_pd = 0.02;
+  st.e = 0.95;
+  st.s = 0.0;
+  const Mat3<double> s0 = st.sigma_f;
+  Mat3<double> W = Mat3<double>::Zero();
+  W(0, 1) = -3.0;
+  W(1, 0) = 3.0;
+  Mat3<double> sig;
+  for (int k = 0; k < 100; ++k) ASSERT_TRUE(PT::update(p, st, W, 1e-3, sig).ok());
+  EXPECT_NEAR(mean_pressure(sig), mean_pressure(s0), 1e-9);
+  EXPECT_NEAR(deviatoric_q(sig), deviatoric_q(s0), 1e-9);
+  EXPECT_EQ(st.s, 0.0);  // no deformation, no temperature
+  PT::State zero;
+  zero.e = 0.95;
+  ASSERT_TRUE(PT::update(p, zero, W, 1e-3, sig).ok());
+  EXPECT_EQ(sig.norm(), 0.0);
+}
+
+TEST(PhaseTransition, FailedUpdateLeavesTheStateUntouched) {
+  const auto p = test::table3_collapse();
+  PT::State st;
+  st.sigma_f = test::isotropic(1000);
+  st.e = 2.969;
+  st.s = 0.1;
+  const PT::State before = st;
+  Mat3<double> L = Mat3<double>::Zero();
+  L.diagonal().setConstant(10.0);  // strong expansion: e leaves its admissible range
+  Mat3<double> sig = Mat3<double>::Zero();
+  const auto inf = PT::update(p, st, L, 1e-2, sig);
+  EXPECT_FALSE(inf.ok());
+  EXPECT_EQ(st.e, before.e);
+  EXPECT_EQ(st.s, before.s);
+  EXPECT_EQ(st.sigma_f, before.sigma_f);
+  st.s = -1.0;  // inadmissible temperature
+  EXPECT_FALSE(PT::update(p, st, Mat3<double>::Zero(), 1e-3, sig).ok());
+}

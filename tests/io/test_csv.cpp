@@ -1,0 +1,69 @@
+// CSV columns through libfccp: good files read, malformed ones give file:line errors.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "io/csv_table.hpp"
+#include "io/input_error.hpp"
+
+using namespace granflow;
+
+namespace {
+
+std::string write_csv(const std::string& name, const std::string& text) {
+  const auto path = std::filesystem::temp_directory_path() / ("granflow_test_" + name + ".csv");
+  std::ofstream(path) << text;
+  return path.string();
+}
+
+void expect_error(const std::string& text, const std::vector<std::string>& cols, const std::string& needle,
+                  bool check_increasing = false) {
+  const auto path = write_csv("bad", text);
+  try {
+    const auto t = io::read_csv_columns(path, cols);
+    if (check_increasing) io::require_strictly_increasing(t, cols.front());
+    FAIL() << "no error for:\n" << text;
+  } catch (const io::InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(path), std::string::npos) << msg;
+    EXPECT_NE(msg.find(needle), std::string::npos) << "'" << needle << "' not in: " << msg;
+  }
+}
+
+}  // namespace
+
+TEST(Csv, ReadsNamedColumnsInAnyOrder) {
+  const auto path = write_csv("good", "# comment\nlabel,x,y\na,1,10\nb,2.5,2e1\n");
+  const auto t = io::read_csv_columns(path, {"y", "x"});
+  ASSERT_EQ(t.rows(), 2u);
+  EXPECT_EQ(t.column("x")[1], 2.5);
+  EXPECT_EQ(t.column("y")[1], 20.0);
+  EXPECT_EQ(t.lines[0], 3);
+  EXPECT_EQ(io::read_csv_text_column(path, "label")[1], "b");
+}
+
+TEST(Csv, ShippedDemDataReads) {
+  const auto t = io::read_csv_columns(std::string(GRANFLOW_SOURCE_DIR) +
+                                          "/data/dem_steady_shear/steady_simple_shear_mu0_mu05.csv",
+                                      {"solid_fraction_nu", "p_dimless", "s_dimless", "T_dimless", "restitution_e"});
+  EXPECT_EQ(t.rows(), 149u);
+}
+
+TEST(Csv, MalformedFilesNameFileAndLine) {
+  expect_error("x,y\n1,2\n3,abc\n", {"x", "y"}, ":3: column 'y': 'abc' is not a number");
+  expect_error("x,y\n1,2\n3,nan\n", {"x", "y"}, ":3: column 'y': 'nan' is not a finite number");
+  expect_error("x,y\n1,2\n3,\n", {"x", "y"}, ":3: column 'y': empty cell");
+  expect_error("x,y\n1,2\n", {"x", "z"}, "z");
+  expect_error("x;y\n1;2\n", {"x", "y"}, "delimiter must be a comma");
+  expect_error("x,y\n", {"x", "y"}, "no data rows");
+  expect_error("", {"x"}, "");
+  expect_error("x,y\n1,2\n1,3\n", {"x", "y"}, ":3: column 'x' must increase strictly", true);
+  expect_error("x,y\n2,2\n1,3\n", {"x", "y"}, ":3:", true);
+  expect_error("x,y\n1,2,3\n", {"x", "y"}, "");
+}
+
+TEST(Csv, MissingFile) {
+  EXPECT_THROW(io::read_csv_columns("/nonexistent/file.csv", {"x"}), io::InputError);
+}
