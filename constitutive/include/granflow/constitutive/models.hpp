@@ -75,17 +75,20 @@ struct CollisionalModel {
   }
 };
 
+template <class S>
+struct PhaseTransitionState {
+  Mat3<S> sigma_f = Mat3<S>::Zero();
+  S eps_pd = 0;
+  S e = 0;
+  S s = 0;  // sqrt(T)
+};
+
 template <class S, LodeShape L = LodeShape::SmoothMohrCoulomb, RestitutionUse R = RestitutionUse::Everywhere>
 struct PhaseTransitionModel {
   using Scalar = S;
   using Params = PhaseTransitionParams<S>;
+  using State = PhaseTransitionState<S>;
   static constexpr bool kFrictional = true, kCollisional = true;
-  struct State {
-    Mat3<S> sigma_f = Mat3<S>::Zero();
-    S eps_pd = 0;
-    S e = 0;
-    S s = 0;  // sqrt(T)
-  };
 
   // MODEL.md 9: Jaumann-rotated frictional update (which also advances e exactly), kinetic
   // functions at the new V_s, exact frozen-coefficient temperature update, then the sum.

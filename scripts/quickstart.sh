@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Set-up to result: install, build, and run the default example jobs.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/install_deps.sh
+scripts/build.sh
+echo
+echo "== granflow element: undrained simple shear, paper's element-test set (Fig. 6 protocol) =="
+./build/granflow element

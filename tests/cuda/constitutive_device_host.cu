@@ -1,0 +1,137 @@
+// Runs the same constitutive updates on the GPU and on the CPU from random states and
+// compares stresses and state variables. Exit 0: agree; 1: disagree; 77: no CUDA device.
+#include <cuda_runtime.h>
+
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include <granflow/constitutive.hpp>
+
+using namespace granflow;
+using PT = PhaseTransitionModel<double>;
+using PTc = PhaseTransitionModel<double, LodeShape::Circular>;
+
+struct Case {
+  PT::State state;
+  Mat3<double> L;
+  double dt;
+};
+
+struct Result {
+  PT::State state;
+  Mat3<double> stress;
+  unsigned flags;
+};
+
+template <class Model>
+__global__ void update_kernel(const typename Model::Params p, const Case* cases, Result* out, int n) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  Result r;
+  r.state = cases[i].state;
+  r.stress = Mat3<double>::Zero();
+  r.flags = Model::update(p, r.state, cases[i].L, cases[i].dt, r.stress).flags;
+  out[i] = r;
+}
+
+namespace {
+
+struct Lcg {  // deterministic, identical on every platform
+  unsigned long long s = 0x9E3779B97F4A7C15ull;
+  double uniform() {
+    s = s * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(s >> 11) * (1.0 / 9007199254740992.0);
+  }
+  double in(double a, double b) { return a + (b - a) * uniform(); }
+};
+
+PT::Params collapse_params() {
+  PT::Params p;
+  const double deg = 3.14159265358979323846 / 180;
+  p.c.rho_p = 2650; p.c.d = 1.25e-3; p.c.V_sd = 1 / 1.62; p.c.V_m = 0.4; p.c.eps_n = 0.6; p.c.mu_p = 0.2;
+  p.f.K0 = 120; p.f.nu = 0.2; p.f.n = 0.5; p.f.phi_c = 19.8 * deg; p.f.e_ref = 0.977; p.f.lambda_c = 0.0596;
+  p.f.xi = 0.365; p.f.A_d = 0.7; p.f.k_p = 0.0044; p.f.n_p = 2.4; p.f.n_d = 2.9;
+  return p;
+}
+
+std::vector<Case> random_cases(int n) {
+  Lcg rng;
+  std::vector<Case> cases(n);
+  for (auto& c : cases) {
+    const double p = std::pow(10.0, rng.in(0.0, 5.0));  // 1 Pa .. 100 kPa
+    Mat3<double> s;
+    for (int i = 0; i < 3; ++i)
+      for (int j = i; j < 3; ++j) s(i, j) = s(j, i) = rng.in(-0.3, 0.3) * p;
+    c.state.sigma_f = s - p * Mat3<double>::Identity();
+    c.state.eps_pd = std::pow(10.0, rng.in(-5.0, -0.5));
+    c.state.e = rng.in(0.7, 1.1);
+    c.state.s = std::pow(10.0, rng.in(-8.0, -0.5));
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) c.L(i, j) = rng.in(-1.0, 1.0) * std::pow(10.0, rng.in(-2.0, 2.0));
+    c.dt = std::pow(10.0, rng.in(-6.0, -3.0));
+  }
+  return cases;
+}
+
+double rel(double a, double b, double scale) { return std::fabs(a - b) / (std::fabs(b) + scale); }
+
+template <class Model>
+int compare(const char* name, const std::vector<Case>& cases) {
+  const int n = static_cast<int>(cases.size());
+  const auto p = collapse_params();
+  Case* d_cases = nullptr;
+  Result* d_out = nullptr;
+  cudaMalloc(&d_cases, n * sizeof(Case));
+  cudaMalloc(&d_out, n * sizeof(Result));
+  cudaMemcpy(d_cases, cases.data(), n * sizeof(Case), cudaMemcpyHostToDevice);
+  update_kernel<Model><<<(n + 127) / 128, 128>>>(p, d_cases, d_out, n);
+  std::vector<Result> gpu(n);
+  cudaError_t err = cudaMemcpy(gpu.data(), d_out, n * sizeof(Result), cudaMemcpyDeviceToHost);
+  cudaFree(d_cases);
+  cudaFree(d_out);
+  if (err != cudaSuccess) {
+    std::printf("%s: CUDA error %s\n", name, cudaGetErrorString(err));
+    return 1;
+  }
+  double worst = 0;
+  int worst_i = -1, flag_mismatch = 0, plastic_cases = 0;
+  for (int i = 0; i < n; ++i) {
+    Result h;
+    h.state = cases[i].state;
+    h.stress = Mat3<double>::Zero();
+    h.flags = Model::update(p, h.state, cases[i].L, cases[i].dt, h.stress).flags;
+    if (h.state.eps_pd > cases[i].state.eps_pd) ++plastic_cases;
+    if ((h.flags & info::kErrorMask) != (gpu[i].flags & info::kErrorMask)) ++flag_mismatch;
+    const double scale = h.stress.norm() * 1e-12 + 1e-9;
+    double d = (h.stress - gpu[i].stress).norm() / (h.stress.norm() + 1e-9);
+    d = std::fmax(d, rel(gpu[i].state.e, h.state.e, 1e-12));
+    d = std::fmax(d, rel(gpu[i].state.s, h.state.s, 1e-15));
+    d = std::fmax(d, rel(gpu[i].state.eps_pd, h.state.eps_pd, scale));
+    if (d > worst) {
+      worst = d;
+      worst_i = i;
+    }
+  }
+  const double tol = 1e-9;
+  std::printf("%s: %d cases (%d plastic), max relative difference GPU vs CPU %.3e (case %d), flag mismatches %d -> %s\n",
+              name, n, plastic_cases, worst, worst_i, flag_mismatch, worst <= tol && flag_mismatch == 0 ? "agree" : "DISAGREE");
+  return worst <= tol && flag_mismatch == 0 ? 0 : 1;
+}
+
+}  // namespace
+
+int main() {
+  int devices = 0;
+  if (cudaGetDeviceCount(&devices) != cudaSuccess || devices == 0) {
+    std::printf("no CUDA device: host/device comparison skipped\n");
+    return 77;
+  }
+  cudaDeviceProp prop;
+  cudaGetDeviceProperties(&prop, 0);
+  std::printf("device: %s\n", prop.name);
+  const auto cases = random_cases(20000);
+  int rc = compare<PT>("phase transition, smooth Mohr-Coulomb", cases);
+  rc |= compare<PTc>("phase transition, circular", cases);
+  return rc;
+}
