@@ -12,9 +12,11 @@ int main(int argc, char** argv) {
       "(SIMSAND-type frictional stress + kinetic-theory collisional stress)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "granflow 0.1.0");
+#ifdef GRANFLOW_WITH_SOLVERS
   granflow::cli::register_element(app);
   granflow::cli::register_figures(app);
   granflow::cli::register_calibrate(app);
+#endif
   granflow::cli::register_mpm(app);
   granflow::cli::register_bench(app);
   try {
