@@ -365,3 +365,60 @@ TEST(Frictional, PureSpinRotatesStressAndKeepsInvariants) {
   ASSERT_TRUE(frictional_update<SMC>(m, z, L, dt).ok());
   EXPECT_EQ(z.sigma.norm(), 0.0);
 }
+
+TEST(Frictional, ReturnMapEndsOnTheSurfaceAndConvergesToTheRateSolution) {
+  // Backward Euler is first order: against a tight explicit reference over the same total strain,
+  // halving the increment halves the error.
+  const auto m = test::table1();
+  auto run = [&](int steps, bool implicit) {
+    auto s = state(test::isotropic(100e3), 0.0, 0.85);
+    Mat3<double> d = Mat3<double>::Zero();
+    d(0, 1) = d(1, 0) = 0.5 * 0.02 / steps;  // gamma = 0.02 in `steps` increments
+    d(2, 2) = 1e-3 / steps;
+    auto mm = m;
+    mm.stol = 1e-10;
+    mm.max_substeps = 1000000;
+    for (int k = 0; k < steps; ++k) {
+      const auto inf = implicit ? frictional_return_map<SMC>(m, s, d) : frictional_increment<SMC>(mm, s, d);
+      EXPECT_TRUE(inf.ok());
+      EXPECT_FALSE(inf.flags & info::kReturnFallback);
+      if (implicit) EXPECT_NEAR(yield_function<SMC>(m, s.sigma, s.eps_pd, s.e), 0.0, 1e-8);
+    }
+    return s.sigma;
+  };
+  const Mat3<double> ref = run(4000, false);
+  const double e1 = (run(50, true) - ref).norm() / ref.norm();
+  const double e2 = (run(100, true) - ref).norm() / ref.norm();
+  const double e3 = (run(200, true) - ref).norm() / ref.norm();
+  const double order = std::log2(e2 / e3);
+  EXPECT_NEAR(std::log2(e1 / e2), 1.0, 0.2);
+  EXPECT_NEAR(order, 1.0, 0.2);
+  EXPECT_LT(e3, 0.1);  // 200 increments of 1e-4 through the steep pressure dip: 6 %
+}
+
+TEST(Frictional, ReturnMapHandlesLargeIncrementsAtLowPressure) {
+  // Free-surface situation: 2 G deps is hundreds of times p. The return converges in a few
+  // iterations (no fallback), ends on the surface or at the cut-off, never NaN.
+  const auto m = test::table3_collapse().f;
+  int iterations = 0, cases = 0;
+  for (double p0 : {2.0, 20.0, 200.0}) {
+    for (double g : {1e-4, 1e-3, 1e-2}) {
+      for (double vol : {-1e-3, 0.0, 1e-4}) {
+        auto s = state(test::isotropic(p0), 0.01, 0.95);
+        Mat3<double> d = Mat3<double>::Zero();
+        d(0, 1) = d(1, 0) = 0.5 * g;
+        d.diagonal().setConstant(vol / 3);
+        const auto inf = frictional_return_map<SMC>(m, s, d);
+        ASSERT_TRUE(inf.ok());
+        EXPECT_FALSE(inf.flags & info::kReturnFallback) << p0 << " " << g << " " << vol;
+        ASSERT_TRUE(all_finite(s.sigma));
+        if (!(inf.flags & info::kTensionCutoff)) {
+          EXPECT_LE(yield_function<SMC>(m, s.sigma, s.eps_pd, s.e), 1e-8);
+        }
+        iterations += inf.substeps;
+        ++cases;
+      }
+    }
+  }
+  EXPECT_LT(iterations, 15 * cases);
+}

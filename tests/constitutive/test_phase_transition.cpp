@@ -69,9 +69,10 @@ TEST(PhaseTransition, PureSpinLeavesInvariantsAndCreatesNoStress) {
   const auto p = test::table3_collapse();
   PT::State st;
   st.sigma_f << -3000, 400, 0, 400, -2000, 0, 0, 0, -1500;
-  st.eps_pd = 0.02;
+  st.eps_pd = 0.2;
   st.e = 0.95;
   st.s = 0.0;
+  ASSERT_LT(yield_function<LodeShape::SmoothMohrCoulomb>(p.f, st.sigma_f, st.eps_pd, st.e), 0.0);
   const Mat3<double> s0 = st.sigma_f;
   Mat3<double> W = Mat3<double>::Zero();
   W(0, 1) = -3.0;

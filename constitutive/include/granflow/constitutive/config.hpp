@@ -21,6 +21,14 @@ enum class LodeShape {
   Circular            // g == 1, compression-matched Drucker-Prager-like cone
 };
 
+// Integration of the frictional law over a strain increment (MODEL.md 3.6, A7).
+enum class StressIntegrator {
+  Hybrid,          // error-controlled substepping; an increment that exhausts the substep budget
+                   // (stiff: 2 G deps >> p near the free surface) is completed by the return map
+  ExplicitSubstep, // substepping only; past the budget, eight uncontrolled steps (flagged)
+  ImplicitReturn   // backward-Euler return map in (p, dLambda) at the trial Lode angle
+};
+
 enum class RestitutionUse {
   Everywhere,      // effective restitution in all kinetic functions (the source's text)
   DissipationOnly  // effective restitution only in the cooling terms (MFIX user routine)
@@ -32,6 +40,7 @@ inline constexpr std::uint32_t kTensionCutoff = 1u << 0;   // p_f fell to the cu
 inline constexpr std::uint32_t kPressureFloor = 1u << 1;   // moduli evaluated at p_min
 inline constexpr std::uint32_t kVsClamped = 1u << 2;       // V_s clamped below V_sd in kinetic functions
 inline constexpr std::uint32_t kSubstepLimit = 1u << 3;    // substep budget exhausted (result less accurate)
+inline constexpr std::uint32_t kReturnFallback = 1u << 6;  // return map failed; substepping used
 inline constexpr std::uint32_t kNonFinite = 1u << 4;       // a non-finite value was produced: state not updated
 inline constexpr std::uint32_t kInadmissible = 1u << 5;    // inadmissible input state (e <= 0, e >= 2.97, T < 0)
 inline constexpr std::uint32_t kErrorMask = kNonFinite | kInadmissible;

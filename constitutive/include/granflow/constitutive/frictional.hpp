@@ -206,16 +206,22 @@ struct FrictionalRate {
 // Stress response to a strain increment deps (or a rate D) at a frozen state, with the full
 // consistency condition: df = n:dsigma - Gm h' dLambda - h dGm/de de = 0 (MODEL.md 3.6, rate
 // form), de = (1 + e) tr(deps). Plastic when on the surface (f >= -ftol_load) and loading.
+// `force_plastic` skips the surface test and takes dLambda = max(0, ...): the second stage of
+// a plastic substep keeps the regime of the first, whose predictor may end slightly inside the
+// surface (switching to elastic there would make the error estimate O(dT), not O(dT^2)).
 template <LodeShape L, class S>
 GF_HDI FrictionalRate<S> frictional_rate(const FrictionalParams<S>& mp, const Mat3In<S>& sigma, S eps_pd,
-                                         S e, const Mat3In<S>& deps, S ftol_load) {
+                                         S e, const Mat3In<S>& deps, S ftol_load, bool force_plastic = false) {
   const YieldState<S> y = yield_state<L>(mp, sigma, eps_pd, e, deps);
   const Mat3<S> dsig_e = apply_elastic(y.C, deps);
   FrictionalRate<S> out{dsig_e, S(0), false};
-  if (y.f < -ftol_load) return out;
+  if (!force_plastic && y.f < -ftol_load) return out;
   const S de = (S(1) + e) * trace(deps);
   const S numer = ddot(y.n, dsig_e) - y.h * y.dGm_de * de;
-  if (!(numer > S(0))) return out;
+  if (!(numer > S(0))) {
+    out.plastic = force_plastic;
+    return out;
+  }
   const Mat3<S> Cm = apply_elastic(y.C, y.m);
   const S denom = ddot(y.n, Cm) + y.Gm * y.dh;
   if (!(denom > S(0))) return out;  // no admissible plastic solution: elastic predictor kept
@@ -290,6 +296,9 @@ GF_HDI Mat3<S> elastic_predictor(const FrictionalParams<S>& mp, const Mat3In<S>&
 
 }  // namespace detail
 
+template <LodeShape L, class S>
+GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, FrictionalState<S>& st, const Mat3In<S>& deps);
+
 // Integrates the rate law over the strain increment deps (tension-positive, no spin):
 // 1. elastic predictor; if it stays inside the surface, done.
 // 2. otherwise find the fraction alpha at which the elastic path meets f = 0 (regula falsi),
@@ -298,7 +307,10 @@ GF_HDI Mat3<S> elastic_predictor(const FrictionalParams<S>& mp, const Mat3In<S>&
 // p_min, which also rounds the cone apex (q <= g M_p h p_min below p_min); whenever the mean
 // stress reaches zero the tension cut-off sets sigma_f = 0: a cohesionless skeleton carries
 // no tension (MODEL.md 3.2, A5). A zero-stress state restarts elastically from zero.
-template <LodeShape L, class S>
+// When the substep budget (max_substeps) is spent, the rest of the increment is completed by
+// the implicit return map (ImplicitCompletion, the Hybrid integrator) or by eight uncontrolled
+// substeps; both raise kSubstepLimit.
+template <LodeShape L, bool ImplicitCompletion = true, class S>
 GF_HDI UpdateInfo frictional_increment(const FrictionalParams<S>& mp, FrictionalState<S>& st,
                                        const Mat3In<S>& deps) {
   UpdateInfo inf;
@@ -361,16 +373,26 @@ GF_HDI UpdateInfo frictional_increment(const FrictionalParams<S>& mp, Frictional
     bool budget_spent = false;
     while (T < S(1)) {
       if (++n > mp.max_substeps && !budget_spent) {
-        // Bounded work per call (GPU): finish in 8 equal steps without error control, flagged.
-        budget_spent = true;
         inf.flags |= info::kSubstepLimit;
+        if constexpr (ImplicitCompletion) {
+          FrictionalState<S> rest{sigma, eps, e};
+          const UpdateInfo ri = frictional_return_map<L>(mp, rest, Mat3<S>((S(1) - T) * d_rest));
+          inf.flags |= ri.flags;
+          if (!ri.ok()) return inf;
+          sigma = rest.sigma;
+          eps = rest.eps_pd;
+          n += ri.substeps;
+          break;
+        }
+        // Bounded work per call: finish in 8 equal steps without error control.
+        budget_spent = true;
         dT = (S(1) - T) / S(8);
       }
       const Mat3<S> dd = dT * d_rest;
       const S e_mid = (S(1) + e) * std::exp(dT * trd) - S(1);
       const FrictionalRate<S> r1 = frictional_rate<L>(mp, sigma, eps, e, dd, ftol_load);
       const FrictionalRate<S> r2 =
-          frictional_rate<L>(mp, Mat3<S>(sigma + r1.dsigma), eps + r1.deps_pd, e_mid, dd, ftol_load);
+          frictional_rate<L>(mp, Mat3<S>(sigma + r1.dsigma), eps + r1.deps_pd, e_mid, dd, ftol_load, r1.plastic);
       const Mat3<S> s_new = sigma + S(0.5) * (r1.dsigma + r2.dsigma);
       const S k_new = eps + S(0.5) * (r1.deps_pd + r2.deps_pd);
       const S scale = detail::stress_norm(s_new) + mp.p_min;
@@ -411,16 +433,177 @@ GF_HDI UpdateInfo frictional_increment(const FrictionalParams<S>& mp, Frictional
   return inf;
 }
 
-// Full update from a velocity gradient: Jaumann rotation (Hughes-Winget, MODEL.md 3.1 A6),
-// then the material response to d eps = D dt.
+// ---- Implicit return map ------------------------------------------------------------------
+//
+// Elastic predictor (the same pressure-dependent integration as above), then a backward-Euler
+// plastic corrector with the moduli of the trial state. With isotropic elasticity and radial
+// deviatoric flow (A3) the corrected deviator keeps the direction of the trial deviator, so the
+// Lode angle is the trial one and the return has two unknowns, p and dLambda:
+//   R1 = p - p_tr + K_tr dLambda Dg(p, q, e1) = 0                   (volumetric)
+//   R2 = q / max(p, p_min) - g M_p(p, e1) h(eps_n + dLambda) = 0    (yield condition)
+// with q = q_tr - 3 G_tr dLambda. Newton with a forward-difference Jacobian and step halving.
+// A root with p <= 0 means the skeleton opened within the increment (tension cut-off).
+// Unconditionally stable: a large increment at low pressure (the free surface of a flow, where
+// 2 G deps can exceed p many times) costs a few iterations instead of hundreds of explicit
+// substeps. First order in the increment; frictional_increment is the accurate alternative.
+
+namespace detail {
+
 template <LodeShape L, class S>
+struct ReturnMapResidual {
+  const FrictionalParams<S>& mp;
+  S p_tr, q_tr, x, K, G, eps_n, e1, scale;
+
+  struct Value {
+    S R1, R2, q;
+  };
+
+  GF_HDI Value operator()(S p, S dL) const {
+    Value v;
+    v.q = q_tr - S(3) * G * dL;
+    const S pe = p > mp.p_min ? p : mp.p_min;
+    const S r = v.q / pe;
+    const S e_c = critical_void_ratio(mp, p);
+    const S tan_c = std::tan(mp.phi_c);
+    const S tan_p = std::pow(e_c / e1, mp.n_p) * tan_c;
+    const S tan_pt = std::pow(e1 / e_c, mp.n_d) * tan_c;
+    const S sin_p = sin_of_tan(tan_p), sin_pt = sin_of_tan(tan_pt);
+    const S Gm = lode_factor<L>(x, sin_p).g * stress_ratio_of_angle(sin_p);
+    const S Dg = mp.A_d * (lode_factor<L>(x, sin_pt).g * stress_ratio_of_angle(sin_pt) - r);
+    const S eps = eps_n + dL;
+    v.R1 = (p - p_tr + K * dL * Dg) / scale;
+    v.R2 = r - Gm * eps / (mp.k_p + eps);
+    return v;
+  }
+};
+
+}  // namespace detail
+
+template <LodeShape L, class S>
+GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, FrictionalState<S>& st, const Mat3In<S>& deps) {
+  UpdateInfo inf;
+  inf.substeps = 1;
+  const S e0 = st.e;
+  const S e1 = (S(1) + e0) * std::exp(trace(deps)) - S(1);
+  if (!(e0 > S(0)) || !(e0 < S(kVoidRatioMax)) || !(e1 > S(0)) || !(e1 < S(kVoidRatioMax))) {
+    inf.flags |= info::kInadmissible;
+    return inf;
+  }
+  Mat3<S> sigma = st.sigma;
+  const S p_n = mean_pressure(sigma);
+  if (!(p_n > S(0))) sigma = Mat3<S>::Zero();
+  if (!(p_n > mp.p_min)) inf.flags |= info::kPressureFloor;
+  const Mat3<S> trial = detail::elastic_predictor(mp, sigma, e0, e1, deps);
+  const S p_tr = mean_pressure(trial);
+  if (!(p_tr > S(0))) {  // the skeleton opens: tension cut-off
+    st.sigma = Mat3<S>::Zero();
+    st.e = e1;
+    inf.flags |= info::kTensionCutoff;
+    return inf;
+  }
+  const YieldState<S> yt = yield_state<L>(mp, trial, st.eps_pd, e1, deps);
+  if (!(yt.f > mp.ftol)) {
+    st.sigma = trial;
+    st.e = e1;
+    return inf;
+  }
+  const StressInvariants<S> inv = stress_invariants(trial, deps);
+  const detail::ReturnMapResidual<L, S> res{mp, p_tr, inv.q, inv.x, yt.C.K, yt.C.G, st.eps_pd, e1,
+                                            p_tr + mp.p_min};
+  // Start from the trial pressure and one linearised plastic correction.
+  S p = p_tr;
+  const S denom0 = ddot(yt.n, apply_elastic(yt.C, yt.m)) + yt.Gm * yt.dh;
+  S dL = denom0 > S(0) ? yt.f / denom0 : S(0);
+  if (!(dL > S(0))) dL = S(0);
+  const S dL_max = inv.q / (S(3) * yt.C.G);  // q >= 0
+  if (dL > dL_max) dL = dL_max;
+  auto v = res(p, dL);
+  bool converged = false;
+  int it = 0;
+  for (; it < 50; ++it) {
+    if (std::fabs(v.R1) <= S(1e-12) && std::fabs(v.R2) <= mp.ftol) {
+      converged = true;
+      break;
+    }
+    const S hp = S(1e-7) * (std::fabs(p) + mp.p_min);
+    const S hl = S(1e-7) * (dL + S(1e-9));
+    const auto vp = res(p + hp, dL);
+    const auto vl = res(p, dL + hl);
+    const S a11 = (vp.R1 - v.R1) / hp, a12 = (vl.R1 - v.R1) / hl;
+    const S a21 = (vp.R2 - v.R2) / hp, a22 = (vl.R2 - v.R2) / hl;
+    const S det = a11 * a22 - a12 * a21;
+    if (!(std::fabs(det) > S(0))) break;
+    const S dp = (-v.R1 * a22 + v.R2 * a12) / det;
+    const S ddl = (-v.R2 * a11 + v.R1 * a21) / det;
+    const S norm0 = std::fabs(v.R1) + std::fabs(v.R2);
+    const S p_prev = p;
+    S lam = S(1);
+    bool moved = false;
+    for (int ls = 0; ls < 40; ++ls) {  // step halving on the residual norm, 0 <= dL <= dL_max
+      S dl_try = dL + lam * ddl;
+      dl_try = dl_try < S(0) ? S(0) : (dl_try > dL_max ? dL_max : dl_try);
+      const auto vt = res(p + lam * dp, dl_try);
+      if (std::fabs(vt.R1) + std::fabs(vt.R2) < norm0) {
+        p += lam * dp;
+        dL = dl_try;
+        v = vt;
+        moved = true;
+        break;
+      }
+      lam *= S(0.5);
+    }
+    if (!moved || !std::isfinite(p) || !std::isfinite(dL)) {
+      // stagnation at round-off level counts as converged
+      converged = std::fabs(v.R1) <= S(1e-9) && std::fabs(v.R2) <= S(1e3) * mp.ftol;
+      break;
+    }
+    if (p < S(2) * mp.p_min && v.R1 > S(0) && std::fabs(p - p_prev) < S(1e-3) * mp.p_min) {
+      // Stalled at the pressure floor while the volumetric balance asks for less: the return
+      // passes through zero pressure (liquefaction within the increment).
+      p = S(0);
+      converged = true;
+      break;
+    }
+  }
+  inf.substeps = it + 1;
+  if (!converged) {
+    // Rare: fall back to the error-controlled explicit integration of the same law.
+    FrictionalState<S> fb = st;
+    fb.sigma = sigma;
+    UpdateInfo f2 = frictional_increment<L, false>(mp, fb, deps);
+    f2.flags |= info::kReturnFallback | inf.flags;
+    f2.substeps += inf.substeps;
+    if (f2.ok()) st = fb;
+    return f2;
+  }
+  st.eps_pd += dL;
+  st.e = e1;
+  if (!(p > S(0))) {  // the return passes through zero pressure: cut-off
+    st.sigma = Mat3<S>::Zero();
+    inf.flags |= info::kTensionCutoff;
+    return inf;
+  }
+  st.sigma = v.q * inv.s_hat - p * identity3<S>();
+  if (!all_finite(st.sigma)) inf.flags |= info::kNonFinite;
+  return inf;
+}
+
+// Full update from a velocity gradient: Jaumann rotation (Hughes-Winget, MODEL.md 3.1 A6),
+// then the material response to d eps = D dt with the chosen integrator.
+template <LodeShape L, StressIntegrator I = StressIntegrator::Hybrid, class S>
 GF_HDI UpdateInfo frictional_update(const FrictionalParams<S>& mp, FrictionalState<S>& st, const Mat3In<S>& grad_v,
                                     S dt) {
   const Mat3<S> W = skew(grad_v);
   const Mat3<S> Q = hughes_winget_rotation(W, dt);
   FrictionalState<S> trial = st;
   trial.sigma = Q * st.sigma * Q.transpose();
-  const UpdateInfo inf = frictional_increment<L>(mp, trial, Mat3<S>(sym(grad_v) * dt));
+  const Mat3<S> deps = sym(grad_v) * dt;
+  UpdateInfo inf;
+  if constexpr (I == StressIntegrator::ImplicitReturn) {
+    inf = frictional_return_map<L>(mp, trial, deps);
+  } else {
+    inf = frictional_increment<L, I == StressIntegrator::Hybrid>(mp, trial, deps);
+  }
   if (inf.ok()) st = trial;
   return inf;
 }

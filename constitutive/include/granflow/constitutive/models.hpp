@@ -28,7 +28,7 @@ GF_HDI S collisional_share(S q_c, S q_f) {
   return sum > S(0) ? q_c / sum : S(0);
 }
 
-template <class S, LodeShape L = LodeShape::SmoothMohrCoulomb>
+template <class S, LodeShape L = LodeShape::SmoothMohrCoulomb, StressIntegrator I = StressIntegrator::Hybrid>
 struct FrictionalModel {
   using Scalar = S;
   using Params = FrictionalParams<S>;
@@ -36,7 +36,7 @@ struct FrictionalModel {
   static constexpr bool kFrictional = true, kCollisional = false;
 
   static GF_HDI UpdateInfo update(const Params& p, State& st, const Mat3In<S>& grad_v, S dt, Mat3<S>& stress) {
-    const UpdateInfo inf = frictional_update<L>(p, st, grad_v, dt);
+    const UpdateInfo inf = frictional_update<L, I>(p, st, grad_v, dt);
     stress = st.sigma;
     return inf;
   }
@@ -83,7 +83,8 @@ struct PhaseTransitionState {
   S s = 0;  // sqrt(T)
 };
 
-template <class S, LodeShape L = LodeShape::SmoothMohrCoulomb, RestitutionUse R = RestitutionUse::Everywhere>
+template <class S, LodeShape L = LodeShape::SmoothMohrCoulomb, RestitutionUse R = RestitutionUse::Everywhere,
+          StressIntegrator I = StressIntegrator::Hybrid>
 struct PhaseTransitionModel {
   using Scalar = S;
   using Params = PhaseTransitionParams<S>;
@@ -94,7 +95,7 @@ struct PhaseTransitionModel {
   // functions at the new V_s, exact frozen-coefficient temperature update, then the sum.
   static GF_HDI UpdateInfo update(const Params& p, State& st, const Mat3In<S>& grad_v, S dt, Mat3<S>& stress) {
     FrictionalState<S> fs{st.sigma_f, st.eps_pd, st.e};
-    UpdateInfo inf = frictional_update<L>(p.f, fs, grad_v, dt);
+    UpdateInfo inf = frictional_update<L, I>(p.f, fs, grad_v, dt);
     if (!inf.ok()) return inf;
     if (!(st.s >= S(0))) {
       inf.flags |= info::kInadmissible;

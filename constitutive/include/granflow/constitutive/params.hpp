@@ -27,7 +27,7 @@ struct FrictionalParams {
   S p_min = S(1.013);      // ~1e-5 p_at
   S stol = S(1e-6);        // relative local error tolerance of the substepping scheme
   S ftol = S(1e-9);        // yield-surface tolerance on f = q/p - g M_p h (dimensionless)
-  int max_substeps = 500;  // per update call
+  int max_substeps = 50;   // substep budget per update call (see StressIntegrator)
 };
 
 template <class S>
