@@ -422,3 +422,23 @@ TEST(Frictional, ReturnMapHandlesLargeIncrementsAtLowPressure) {
   }
   EXPECT_LT(iterations, 15 * cases);
 }
+
+TEST(Frictional, UpdateWithSpinIsSecondOrderInTheStep) {
+  // Undrained simple shear (spin = strain rate) with the substepping tight enough that the
+  // splitting of rotation and straining dominates: Strang splitting gives order 2.
+  auto m = test::table1();
+  m.stol = 1e-10;
+  m.max_substeps = 1000000;
+  auto run = [&](int steps) {
+    auto s = state(test::isotropic(100e3), 0.01, 0.80);
+    const double duration = 0.05, dt = duration / steps;  // gamma = 0.5 at rate 10 1/s
+    for (int k = 0; k < steps; ++k)
+      EXPECT_TRUE((frictional_update<SMC, StressIntegrator::ExplicitSubstep>(m, s, test::simple_shear(10.0), dt).ok()));
+    return s.sigma;
+  };
+  const Mat3<double> ref = run(1600);
+  const double e1 = (run(50) - ref).norm(), e2 = (run(100) - ref).norm(), e3 = (run(200) - ref).norm();
+  RecordProperty("orders", std::to_string(std::log2(e1 / e2)) + " " + std::to_string(std::log2(e2 / e3)));
+  EXPECT_NEAR(std::log2(e1 / e2), 2.0, 0.2);
+  EXPECT_NEAR(std::log2(e2 / e3), 2.0, 0.2);
+}

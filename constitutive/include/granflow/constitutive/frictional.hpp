@@ -588,13 +588,15 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
   return inf;
 }
 
-// Full update from a velocity gradient: Jaumann rotation (Hughes-Winget, MODEL.md 3.1 A6),
-// then the material response to d eps = D dt with the chosen integrator.
+// Full update from a velocity gradient: the Jaumann rotation (Hughes-Winget, MODEL.md 3.1 A6)
+// and the material response to d eps = D dt, combined by Strang splitting (half rotation,
+// material increment, half rotation). Rotating the whole step first (Lie splitting) would make
+// the update first order in dt in any loading with spin, such as simple shear.
 template <LodeShape L, StressIntegrator I = StressIntegrator::Hybrid, class S>
 GF_HDI UpdateInfo frictional_update(const FrictionalParams<S>& mp, FrictionalState<S>& st, const Mat3In<S>& grad_v,
                                     S dt) {
   const Mat3<S> W = skew(grad_v);
-  const Mat3<S> Q = hughes_winget_rotation(W, dt);
+  const Mat3<S> Q = hughes_winget_rotation(W, S(0.5) * dt);
   FrictionalState<S> trial = st;
   trial.sigma = Q * st.sigma * Q.transpose();
   const Mat3<S> deps = sym(grad_v) * dt;
@@ -604,6 +606,7 @@ GF_HDI UpdateInfo frictional_update(const FrictionalParams<S>& mp, FrictionalSta
   } else {
     inf = frictional_increment<L, I == StressIntegrator::Hybrid>(mp, trial, deps);
   }
+  trial.sigma = Q * trial.sigma * Q.transpose();
   if (inf.ok()) st = trial;
   return inf;
 }
