@@ -7,3 +7,6 @@ scripts/build.sh
 echo
 echo "== granflow element: undrained simple shear, paper's element-test set (Fig. 6 protocol) =="
 ./build/granflow element
+echo
+echo "== granflow figures: the paper's element tests (Figs. 4-7) and the DEM comparison =="
+./build/granflow figures --out out/figures
