@@ -22,6 +22,7 @@ struct Result {
   PT::State state;
   Mat3<double> stress;
   unsigned flags;
+  int substeps;
 };
 
 template <class Model>
@@ -31,7 +32,9 @@ __global__ void update_kernel(const typename Model::Params p, const Case* cases,
   Result r;
   r.state = cases[i].state;
   r.stress = Mat3<double>::Zero();
-  r.flags = Model::update(p, r.state, cases[i].L, cases[i].dt, r.stress).flags;
+  const UpdateInfo inf = Model::update(p, r.state, cases[i].L, cases[i].dt, r.stress);
+  r.flags = inf.flags;
+  r.substeps = inf.substeps;
   out[i] = r;
 }
 
@@ -83,9 +86,13 @@ std::vector<Case> random_cases(int n, double max_log_strain, unsigned long long 
 
 double rel(double a, double b, double scale) { return std::fabs(a - b) / (std::fabs(b) + scale); }
 
-// Cases whose integration converged within its substep budget must agree to round-off.
-// Budget-exhausted or fall-back cases (stiff increments near liquefaction, where a rounding
-// difference may decide whether the skeleton opens) are counted; at most 1 % may differ.
+// Host and device run the same code in FP64, but FMA contraction and library rounding differ,
+// and the integration takes discrete decisions (accept or reject a substep, end an iteration at
+// its tolerance) on those rounded values. Two CPU builds of this very test, with and without
+// FMA contraction, differ by up to 5e-7 on converged cases for the same reason. So converged
+// cases must agree to the integration tolerance (10 stol = 1e-5), flags must agree, and cases
+// that exhausted the substep budget (stiff increments near liquefaction, where a rounding
+// difference may decide whether the skeleton opens) may differ in at most 1 % of all cases.
 template <class Model>
 int compare(const char* name, const std::vector<Case>& cases) {
   const int n = static_cast<int>(cases.size());
@@ -104,14 +111,16 @@ int compare(const char* name, const std::vector<Case>& cases) {
     std::printf("%s: CUDA error %s\n", name, cudaGetErrorString(err));
     return 1;
   }
-  double worst = 0;
-  int worst_i = -1, flag_mismatch = 0, plastic_cases = 0, stiff = 0, stiff_differ = 0;
+  double worst = 0, worst_same = 0;
+  int worst_i = -1, flag_mismatch = 0, plastic_cases = 0, stiff = 0, stiff_differ = 0, same_path = 0;
   const unsigned stiff_flags = info::kSubstepLimit | info::kReturnFallback;
   for (int i = 0; i < n; ++i) {
     Result h;
     h.state = cases[i].state;
     h.stress = Mat3<double>::Zero();
-    h.flags = Model::update(p, h.state, cases[i].L, cases[i].dt, h.stress).flags;
+    const UpdateInfo hinf = Model::update(p, h.state, cases[i].L, cases[i].dt, h.stress);
+    h.flags = hinf.flags;
+    h.substeps = hinf.substeps;
     if (h.state.eps_pd > cases[i].state.eps_pd) ++plastic_cases;
     if ((h.flags | gpu[i].flags) & stiff_flags) {
       ++stiff;
@@ -125,16 +134,20 @@ int compare(const char* name, const std::vector<Case>& cases) {
     d = std::fmax(d, rel(gpu[i].state.e, h.state.e, 1e-12));
     d = std::fmax(d, rel(gpu[i].state.s, h.state.s, 1e-15));
     d = std::fmax(d, rel(gpu[i].state.eps_pd, h.state.eps_pd, scale));
+    if (h.substeps == gpu[i].substeps) {
+      ++same_path;
+      worst_same = std::fmax(worst_same, d);
+    }
     if (d > worst) {
       worst = d;
       worst_i = i;
     }
   }
-  const double tol = 1e-9;
-  const bool ok = worst <= tol && flag_mismatch == 0 && stiff_differ <= n / 100;
-  std::printf("%s: %d cases (%d plastic); converged cases: max relative difference GPU vs CPU %.3e (case %d), "
-              "flag mismatches %d; budget-exhausted cases %d, of which differ %d -> %s\n",
-              name, n, plastic_cases, worst, worst_i, flag_mismatch, stiff, stiff_differ, ok ? "agree" : "DISAGREE");
+  const bool ok = worst <= 10 * p.f.stol && flag_mismatch == 0 && stiff_differ <= n / 100;
+  std::printf("%s: %d cases (%d plastic); same substeps %d: max rel. difference %.3e; converged: max %.3e "
+              "(case %d), flag mismatches %d; budget-exhausted %d, of which differ %d -> %s\n",
+              name, n, plastic_cases, same_path, worst_same, worst, worst_i, flag_mismatch, stiff, stiff_differ,
+              ok ? "agree" : "DISAGREE");
   return ok ? 0 : 1;
 }
 
