@@ -1,11 +1,17 @@
-// granflow element: constant-volume simple shear of one material point with the MPM's
-// incremental update (the CVODE driver and other loading paths come with the element-test job).
+// granflow element: drive one material point through an element test (CVODE or the MPM's
+// incremental update) and write the CSV time series. Also `granflow bench element`.
+#include <unistd.h>
+
+#include <chrono>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <string>
 #include <vector>
 
-#include <granflow/constitutive.hpp>
+#include <granflow/elementtest/paper.hpp>
+#include <granflow/elementtest/run.hpp>
 
 #include "commands.hpp"
 #include "io/input_error.hpp"
@@ -16,71 +22,114 @@ namespace granflow::cli {
 namespace {
 
 struct ElementOptions {
-  std::string params = "element_test";
+  std::string test_file;
+  std::string params;
   std::vector<std::string> overrides;
-  double e0 = 0;  // 0: first e0 of the set
-  double sigma_v0 = 500.0;
-  double rate = 10.0;
-  double duration = 0.5;
-  double dt = 1e-5;
-  int prints = 20;
+  std::string out;
+  bool force = false;
 };
 
-void run_element(const ElementOptions& o) {
-  io::ParameterSet set = io::load_parameter_set(o.params);
-  for (const auto& a : o.overrides) io::apply_override(set, a);
-  const double e0 = o.e0 > 0 ? o.e0 : (set.e0.empty() ? 0.0 : set.e0.front());
-  if (!(e0 > 0)) throw io::InputError(io::where(set.file) + "no initial void ratio: give --e0 or initial.e0");
-  io::check_initial_void_ratio(set, e0, "--e0");
-  using Model = PhaseTransitionModel<double>;
-  const auto p = set.phase_transition();
-  Model::State st;
-  st.sigma_f = -o.sigma_v0 * Mat3<double>::Identity();
-  st.e = e0;
-  st.s = std::sqrt(set.T0.value_or(1e-15));
-  Mat3<double> L = Mat3<double>::Zero();
-  L(0, 1) = o.rate;
-  const long steps = static_cast<long>(o.duration / o.dt + 0.5);
-  const long every = std::max(1L, steps / std::max(1, o.prints));
-  std::printf("# undrained simple shear, %s, e0 = %.3f, sigma_v0 = %.1f Pa, gammadot = %g 1/s, dt = %g s\n",
-              set.name.c_str(), e0, o.sigma_v0, o.rate, o.dt);
-  std::printf("%10s %10s %12s %12s %12s %12s %12s %8s\n", "t[s]", "gamma", "sigma_v[Pa]", "tau[Pa]", "tau_f[Pa]",
-              "tau_c[Pa]", "T[m2/s2]", "K_col");
-  Mat3<double> stress = st.sigma_f;
-  for (long i = 1; i <= steps; ++i) {
-    const UpdateInfo inf = Model::update(p, st, L, o.dt, stress);
-    if (!inf.ok()) throw std::runtime_error("constitutive update failed at step " + std::to_string(i));
-    if (i % every == 0 || i == steps) {
-      const Diagnostics<double> d = Model::diagnostics(p, st, sym(L));
-      std::printf("%10.4f %10.4f %12.5g %12.5g %12.5g %12.5g %12.5g %8.4f\n", i * o.dt, i * o.dt * o.rate,
-                  -stress(1, 1), stress(0, 1), st.sigma_f(0, 1), stress(0, 1) - st.sigma_f(0, 1), d.T, d.K_col);
-    }
+// Writes text to path through a temporary name and a rename; refuses to overwrite unless force.
+void write_atomically(const std::string& path, const std::string& text, bool force) {
+  namespace fs = std::filesystem;
+  if (fs::exists(path) && !force)
+    throw io::InputError(io::where(path) + "file exists; use --force to overwrite it");
+  const std::string tmp = path + ".tmp" + std::to_string(::getpid());
+  {
+    std::ofstream os(tmp);
+    if (!os) throw io::InputError(io::where(tmp) + "cannot write");
+    os << text;
+    if (!os) throw io::InputError(io::where(tmp) + "write failed");
   }
+  fs::rename(tmp, path);
+}
+
+void print_table(const elementtest::ResultTable& r, int rows) {
+  std::printf("%10s %10s %11s %12s %12s %12s %12s %12s %8s\n", "t[s]", "gamma", "rate[1/s]", "sigma_n[Pa]", "tau[Pa]",
+              "tau_f[Pa]", "tau_c[Pa]", "T[m2/s2]", "K_col");
+  const std::size_t n = r.rows();
+  const std::size_t every = std::max<std::size_t>(1, (n - 1) / std::max(1, rows - 1));
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i % every != 0 && i + 1 != n) continue;
+    std::printf("%10.4g %10.4g %11.4g %12.5g %12.5g %12.5g %12.5g %12.5g %8.4f\n", r.column("time")[i],
+                r.column("gamma")[i], r.column("shear_rate")[i], r.column("sigma_n")[i], r.column("tau")[i],
+                r.column("tau_f")[i], r.column("tau_c")[i], r.column("T")[i], r.column("K_col")[i]);
+  }
+}
+
+void run_element(const ElementOptions& o) {
+  elementtest::ElementTest test;
+  std::string params = "element_test";
+  std::vector<std::string> overrides;
+  if (o.test_file.empty()) {
+    test = elementtest::paper::fig6_test(0.99);
+    test.output.points = 41;
+  } else {
+    elementtest::TestFile tf = elementtest::load_test_file(o.test_file);
+    test = tf.test;
+    params = tf.params;
+    overrides = tf.overrides;
+  }
+  if (!o.params.empty()) params = o.params;
+  io::ParameterSet set = io::load_parameter_set(params);
+  for (const auto& a : overrides) io::apply_override(set, a);
+  for (const auto& a : o.overrides) io::apply_override(set, a);
+  if (!o.out.empty() && std::filesystem::exists(o.out) && !o.force)
+    throw io::InputError(io::where(o.out) + "file exists; use --force to overwrite it");
+
+  const auto t0 = std::chrono::steady_clock::now();
+  bool shown = false;
+  auto progress = [&](double f) {
+    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (el > 1.0) {
+      std::fprintf(stderr, "\r  %s: %5.1f %% (%.1f s)", test.name.c_str(), 100 * f, el);
+      shown = true;
+    }
+  };
+  const elementtest::ResultTable r = elementtest::run_element_test(test, set, progress);
+  if (shown) std::fprintf(stderr, "\n");
+  if (o.test_file.empty())
+    std::printf("# default job: Fig. 6 undrained simple shear, %s, e0 = %.2f, sigma_v0 = %g Pa,\n"
+                "# 10 1/s for 0.5 s then 50 1/s^2 to 20 s (CVODE rtol %g)\n",
+                set.name.c_str(), test.initial.e0, test.initial.sigma_v0, test.solver.rtol);
+  if (o.out.empty()) {
+    print_table(r, 21);
+  } else {
+    write_atomically(o.out, r.to_csv(), o.force);
+    std::printf("wrote %s (%zu rows)\n", o.out.c_str(), r.rows());
+  }
+  std::printf("# %ld steps, %ld right-hand-side evaluations, %ld events, %.3f ms CPU%s\n", r.stats.steps,
+              r.stats.rhs_evals, r.stats.events, 1e3 * r.stats.cpu_seconds,
+              r.stats.tension_cutoff ? ("; frictional stress vanished (p_f = 0) at t = " +
+                                        std::to_string(r.stats.cutoff_time) + " s")
+                                           .c_str()
+                                     : "");
 }
 
 }  // namespace
 
 void register_element(CLI::App& app) {
   auto opt = std::make_shared<ElementOptions>();
-  auto* cmd = app.add_subcommand("element", "Drive one material point through an element test");
-  cmd->add_option("--params", opt->params, "Parameter set: name under data/params or a TOML path")
-      ->capture_default_str();
+  auto* cmd = app.add_subcommand(
+      "element",
+      "Drive one material point through an element test (TOML test file; without one: the paper's Fig. 6 "
+      "undrained simple shear, e0 = 0.99)");
+  cmd->add_option("test", opt->test_file, "Test file (TOML with params = ... and a [test] table)");
+  cmd->add_option("--params", opt->params, "Parameter set: name under data/params or a TOML path (overrides the file's)");
   cmd->add_option("--set", opt->overrides, "Override one parameter, e.g. --set frictional.phi_c_deg=25");
-  cmd->add_option("--e0", opt->e0, "Initial void ratio (default: first initial.e0 of the set)");
-  cmd->add_option("--sigma-v0", opt->sigma_v0, "Initial isotropic stress [Pa]")->capture_default_str();
-  cmd->add_option("--rate", opt->rate, "Shear rate [1/s]")->capture_default_str();
-  cmd->add_option("--duration", opt->duration, "Duration [s]")->capture_default_str();
-  cmd->add_option("--prints", opt->prints, "Rows printed")->capture_default_str();
-  cmd->add_option("--dt", opt->dt, "Time step of the incremental update [s]")->capture_default_str();
+  cmd->add_option("--out", opt->out, "Write the CSV time series here (otherwise a short table is printed)");
+  cmd->add_flag("--force", opt->force, "Overwrite an existing --out file");
   cmd->callback([opt] { run_element(*opt); });
 }
 
-}  // namespace granflow::cli
-
-namespace granflow::cli {
 void register_bench_element(CLI::App& bench) {
-  auto* cmd = bench.add_subcommand("element", "(element-test benchmark: not yet implemented)");
-  cmd->allow_extras();
-  cmd->callback([] { throw std::runtime_error("granflow bench element: not implemented yet"); });
+  auto out = std::make_shared<std::string>("docs/figures");
+  auto quick = std::make_shared<bool>(false);
+  auto* cmd = bench.add_subcommand(
+      "element", "Error against run time: CVODE rtol 1e-2..1e-10 and incremental dt 1e-2..1e-7 s (Figs. 4 and 6)");
+  cmd->add_option("--out", *out, "Folder for bench_element.csv and the work-precision PNG")->capture_default_str();
+  cmd->add_flag("--quick", *quick, "Fewer tolerances and steps (for a smoke test)");
+  cmd->callback([out, quick] { elementtest::paper::bench_element(*out, *quick, std::cout); });
 }
+
 }  // namespace granflow::cli

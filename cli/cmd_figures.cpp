@@ -1,16 +1,60 @@
-// Placeholder until the figures job exists; registered so --help lists it.
+// granflow figures: regenerates the source's element-test figures (Figs. 4-7) and the DEM
+// steady-shear comparison as CSV, then plots them with scripts/plot_figures.py (matplotlib).
+#include <cstdlib>
+#include <filesystem>
 #include <iostream>
+#include <string>
+
+#include <granflow/elementtest/paper.hpp>
 
 #include "commands.hpp"
 
+#ifndef GRANFLOW_SOURCE_ROOT
+#define GRANFLOW_SOURCE_ROOT "."
+#endif
+
 namespace granflow::cli {
 
+namespace {
+
+std::string plot_script() {
+  namespace fs = std::filesystem;
+  if (fs::exists("scripts/plot_figures.py")) return "scripts/plot_figures.py";
+  return std::string(GRANFLOW_SOURCE_ROOT) + "/scripts/plot_figures.py";
+}
+
+// The first python3 that has matplotlib (a pyenv shim may shadow the system one).
+std::string python_with_matplotlib() {
+  for (const char* py : {"python3", "/usr/bin/python3"}) {
+    const std::string probe = std::string(py) + " -c 'import matplotlib' >/dev/null 2>&1";
+    if (std::system(probe.c_str()) == 0) return py;
+  }
+  return "";
+}
+
+void plot(const std::string& script, const std::string& dir) {
+  const std::string py = python_with_matplotlib();
+  if (py.empty()) {
+    std::cerr << "granflow figures: no python3 with matplotlib found: CSVs written, PNGs not made.\n"
+                 "  Install python3-matplotlib and run: python3 "
+              << script << " " << dir << "\n";
+    return;
+  }
+  const std::string cmd = py + " '" + script + "' '" + dir + "'";
+  if (std::system(cmd.c_str()) != 0) std::cerr << "granflow figures: plotting failed: " << cmd << "\n";
+}
+
+}  // namespace
+
 void register_figures(CLI::App& app) {
-  auto* cmd = app.add_subcommand("figures", "(figures: not yet implemented in this version)");
-  cmd->allow_extras();
-  cmd->callback([] {
-    std::cerr << "granflow figures: not implemented yet\n";
-    std::exit(3);
+  auto out = std::make_shared<std::string>("docs/figures");
+  auto* cmd = app.add_subcommand("figures", "Regenerate Figs. 4-7 and the DEM comparison (CSV + PNG)");
+  cmd->add_option("--out", *out, "Output folder")->capture_default_str();
+  cmd->callback([out] {
+    std::cout << "granflow figures -> " << *out << "\n";
+    const auto files = elementtest::paper::write_figures(*out, std::cout);
+    for (const auto& f : files) std::cout << "  wrote " << f << "\n";
+    plot(plot_script(), *out);
   });
 }
 
