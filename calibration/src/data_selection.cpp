@@ -1,6 +1,7 @@
 // Rows of a data file -> curves: filter, split into groups, abscissa window, duplicates, order.
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <sstream>
 
@@ -18,6 +19,36 @@ std::string format_value(double v) {
   std::ostringstream os;
   os << v;
   return os.str();
+}
+
+// A requested column missing from the header: name the header's line and what the job asked for
+// (the CSV reader names only the file for this case).
+void check_header(const std::string& path, const std::vector<std::string>& names, const std::string& experiment) {
+  std::ifstream in(path);
+  if (!in) throw io::InputError(io::where(path) + "cannot open the data file of experiment '" + experiment + "'");
+  std::string line;
+  long n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<std::string> cols;
+    std::stringstream ss(line);
+    std::string c;
+    while (std::getline(ss, c, ',')) {
+      const auto a = c.find_first_not_of(" \t\""), b = c.find_last_not_of(" \t\"");
+      cols.push_back(a == std::string::npos ? "" : c.substr(a, b - a + 1));
+    }
+    for (const auto& want : names)
+      if (std::find(cols.begin(), cols.end(), want) == cols.end())
+        throw io::InputError(io::where(path, n) + "experiment '" + experiment + "' needs column '" + want +
+                             "', which the header '" + line + "' does not have" +
+                             (line.find(';') != std::string::npos || line.find('\t') != std::string::npos
+                                  ? " (the delimiter must be a comma)"
+                                  : ""));
+    return;
+  }
+  throw io::InputError(io::where(path) + "empty file: no header line (data of experiment '" + experiment + "')");
 }
 
 }  // namespace
@@ -40,6 +71,7 @@ std::vector<DataGroup> select_data(const DataSelection& sel, const std::string& 
   for (const auto& [col, v] : sel.filter) add(col);
   for (const auto& col : sel.split_by) add(col);
   for (const auto& col : sel.extra_columns) add(col);
+  check_header(sel.file, names, experiment_name);
   const io::CsvColumns table = io::read_csv_columns(sel.file, names);
   const auto& x = table.column(sel.abscissa);
 

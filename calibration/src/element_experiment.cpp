@@ -1,5 +1,6 @@
 // Element-test experiments: the [experiments.test] table is an element test as `granflow element`
 // reads it; the model curve is the driver's result column interpolated at the data abscissae.
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -32,9 +33,13 @@ bool element_tests_available() { return GF_ELEMENT != 0; }
 
 namespace {
 
-// Linear interpolation of y(x) at xi; x increasing. NaN outside [x0, xn].
+// Linear interpolation of y(x) at xi; x increasing. NaN outside [x0, xn] widened by a round-off
+// margin (a run to gamma = 0.2 may end at 0.19999999999).
 double interpolate(const std::vector<double>& x, const std::vector<double>& y, double xi) {
-  if (x.empty() || xi < x.front() || xi > x.back()) return std::numeric_limits<double>::quiet_NaN();
+  if (x.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const double tol = 1e-9 * std::max({std::fabs(x.front()), std::fabs(x.back()), x.back() - x.front()});
+  if (xi < x.front() - tol || xi > x.back() + tol) return std::numeric_limits<double>::quiet_NaN();
+  xi = std::clamp(xi, x.front(), x.back());
   std::size_t hi = std::lower_bound(x.begin(), x.end(), xi) - x.begin();
   if (hi == 0) return y[0];
   const std::size_t lo = hi - 1;
