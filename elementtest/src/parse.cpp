@@ -49,7 +49,10 @@ ElementTest parse_element_test(io::TomlTable& t) {
   const std::string rate_file = t.string_or("rate_file", "");
   const bool has_rates = t.has("rates");
   std::vector<double> rates;
-  if (has_rates) rates = t.numbers("rates", Bounds::positive());
+  if (has_rates)
+    rates = t.numbers("rates", Bounds::positive());
+  else
+    (void)t.optional_number("rates");  // absent: only lists it among the allowed keys
   const auto rmin = t.optional_number("rate_min", Bounds::positive());
   const auto rmax = t.optional_number("rate_max", Bounds::positive());
   const long per_decade = t.integer_or("rates_per_decade", 4, 1, 1000);

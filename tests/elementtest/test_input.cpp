@@ -1,0 +1,75 @@
+// Bad test files give errors naming file, line and key.
+#include "common.hpp"
+
+#include <fstream>
+
+namespace {
+
+std::string write(const std::string& name, const std::string& text) {
+  const std::string p = ::testing::TempDir() + "/" + name;
+  std::ofstream(p) << text;
+  return p;
+}
+
+std::string error_of(const std::string& path) {
+  try {
+    gt::load_test_file(path);
+  } catch (const granflow::io::InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(ElementInput, ShippedExamplesParseAndRun) {
+  for (const char* f : {"data/tests/fig4_e080.toml", "data/tests/fig6_e099.toml"}) {
+    const gt::TestFile tf = gt::load_test_file(std::string(GRANFLOW_SOURCE_DIR) + "/" + f);
+    gt::ElementTest t = tf.test;
+    t.programme.duration = std::min(t.programme.duration, 0.01);
+    expect_admissible(gt::run_element_test(t, pset(tf.params)));
+  }
+}
+
+TEST(ElementInput, UnknownKeyNamesFileLineAndKey) {
+  const std::string p = write("bad1.toml", "params = \"element_test\"\n[test]\nrate = 1\nduration = 1\nsigma_v = 5\n");
+  const std::string e = error_of(p);
+  EXPECT_NE(e.find("bad1.toml:5"), std::string::npos) << e;
+  EXPECT_NE(e.find("test.sigma_v"), std::string::npos) << e;
+}
+
+TEST(ElementInput, OutOfRangeValueNamesKey) {
+  const std::string p = write("bad2.toml", "[test]\nrtol = 2\n");
+  const std::string e = error_of(p);
+  EXPECT_NE(e.find("bad2.toml:2"), std::string::npos) << e;
+  EXPECT_NE(e.find("test.rtol"), std::string::npos) << e;
+}
+
+TEST(ElementInput, WrongProgrammeKeysAreErrors) {
+  EXPECT_NE(error_of(write("bad3.toml", "[test]\nprogramme = \"constant\"\nacceleration = 5\n")).find("test.acceleration"),
+            std::string::npos);
+  EXPECT_NE(error_of(write("bad4.toml", "[test]\nprogramme = \"table\"\n")).find("rate_file"), std::string::npos);
+  EXPECT_NE(error_of(write("bad5.toml", "[test]\nsolver = \"cvode\"\ndt = 1e-3\n")).find("test.dt"), std::string::npos);
+  EXPECT_NE(error_of(write("bad6.toml", "[test]\npath = \"triaxial\"\n")).find("test.path"), std::string::npos);
+  EXPECT_NE(error_of(write("bad7.toml", "parms = \"x\"\n[test]\n")).find("bad7.toml:1"), std::string::npos);
+}
+
+TEST(ElementInput, BadRateTableNamesFileAndLine) {
+  write("rates.csv", "time,rate\n0,1\n0.5,2\n0.4,3\n");
+  const std::string e = error_of(write("bad8.toml", "[test]\nprogramme = \"table\"\nrate_file = \"rates.csv\"\n"));
+  EXPECT_NE(e.find("rates.csv:4"), std::string::npos) << e;
+  write("rates2.csv", "time,rate\n0,1\n0.5,abc\n");
+  const std::string e2 = error_of(write("bad9.toml", "[test]\nprogramme = \"table\"\nrate_file = \"rates2.csv\"\n"));
+  EXPECT_NE(e2.find("rates2.csv:3"), std::string::npos) << e2;
+}
+
+TEST(ElementInput, RunErrorsAreInputErrors) {
+  gt::ElementTest t;
+  t.model = gt::ModelChoice::Frictional;
+  EXPECT_THROW(gt::run_element_test(t, pset("collisional_element")), granflow::io::InputError);
+  t.model = gt::ModelChoice::Auto;
+  t.initial.e0 = 0.5;  // V_s above V_sd
+  EXPECT_THROW(gt::run_element_test(t, pset("element_test")), granflow::io::InputError);
+  gt::ResultTable r;
+  EXPECT_THROW(r.column("nope"), granflow::io::InputError);
+}
