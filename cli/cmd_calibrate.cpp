@@ -27,6 +27,7 @@ struct CalibrateOptions {
   bool no_plot = false;
   bool quiet = false;
   bool bench = false;
+  bool evaluate = false;
   std::string synthesize;  // truth parameter set
   double noise = 0.02;
   unsigned long seed = 1;
@@ -53,6 +54,7 @@ void run_calibrate(const CalibrateOptions& o) {
   Objective obj(job, o.threads);
   FitOptions fo;
   fo.progress = !o.quiet;
+  fo.evaluate_only = o.evaluate;
   const FitResult r = fit(obj, fo);
   if (!o.quiet) std::cout << format_report(obj, r);
   write_outputs(obj, r, out, o.force, !o.no_plot);
@@ -87,6 +89,7 @@ void register_calibrate(CLI::App& app) {
   cmd->add_option("--threads", o->threads, "Threads for the objective (0: all cores)")->capture_default_str();
   cmd->add_flag("--no-plot", o->no_plot, "Do not draw fit.png");
   cmd->add_flag("--quiet", o->quiet, "No progress line, no report on stdout");
+  cmd->add_flag("--evaluate", o->evaluate, "Only evaluate the starting set (misfit, RMSE, R2, identifiability); no fit");
   cmd->add_flag("--bench", o->bench, "Time the shipped DEM and synthetic-frictional fits and print the figures");
   cmd->add_option("--synthesize", o->synthesize,
                   "Write the job's element-test data files from this parameter set instead of fitting");

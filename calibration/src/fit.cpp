@@ -110,7 +110,9 @@ FitResult fit(const Objective& obj, const FitOptions& options) {
   tr.best_u = u_start;
   std::string reason;
 
-  if (a.global != "none") {
+  if (options.evaluate_only) {
+    reason = "evaluation only (--evaluate)";
+  } else if (a.global != "none") {
     nlopt::srand(a.seed);  // the stochastic global methods draw from NLopt's generator
     nlopt::opt g(algorithm_of(a.global), static_cast<unsigned>(n));
     g.set_maxeval(static_cast<int>(a.global_evaluations));
@@ -126,7 +128,7 @@ FitResult fit(const Objective& obj, const FitOptions& options) {
     reason = "global: " + run(g, tr, u_start, a.max_time_s);
     res.global_evaluations = tr.evaluations;
   }
-  if (a.local != "none") {
+  if (a.local != "none" && !options.evaluate_only) {
     std::mt19937_64 rng(a.seed);
     std::uniform_real_distribution<double> uni(0.0, 1.0);
     tr.phase = "local";

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 #include <random>
 #include <sstream>
 
@@ -154,6 +155,7 @@ TEST(CalibrationFit, SteadyShearRoundTripRecoversParameters) {
   const FitResult r = fit(obj, fo);
   expect_recovered(job, r, {{"collisional.e_sd", 0.60}, {"collisional.V_m", 0.35}, {"collisional.eps_n", 0.80}},
                    {"collisional.e_sd", "collisional.eps_n"}, format_report(obj, r));
+  std::cout << format_report(obj, r);
 }
 
 // eps_n and mu_p enter the kinetic theory only through the effective restitution (Eq. 24):

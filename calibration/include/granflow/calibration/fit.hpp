@@ -98,7 +98,8 @@ struct Identifiability {
 };
 
 struct FitOptions {
-  bool progress = true;  // progress line on stderr
+  bool progress = true;        // progress line on stderr
+  bool evaluate_only = false;  // no optimisation: report the misfit and identifiability at the start values
 };
 
 struct FitResult {
