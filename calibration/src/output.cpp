@@ -52,7 +52,15 @@ std::string fitted_toml(const CalibrationJob& job, const FitResult& r) {
              "); started from " + (job.start.file.empty() ? job.start.name : job.start.file);
   std::string text = "# Fitted parameter set written by granflow calibrate; loads as it is in granflow element.\n# Free: ";
   for (std::size_t j = 0; j < job.free.size(); ++j) text += (j ? ", " : "") + job.free[j].key;
-  text += "\n" + io::format_parameter_set(s);
+  text += "\n";
+  bool first = true;
+  for (const auto& e : job.experiments)
+    if (!e->data_parameters().empty()) {
+      if (first) text += "# The fit took these from the data, per curve; the values below are the start set's:\n";
+      first = false;
+      text += "#   " + e->name + ": " + e->data_parameters() + "\n";
+    }
+  text += io::format_parameter_set(s);
   // The file must load unchanged: parse it back with the same validation as any parameter file.
   const toml::table doc = toml::parse(std::string_view(text), std::string_view("fitted parameter set"));
   io::TomlTable root(doc, "fitted parameter set");

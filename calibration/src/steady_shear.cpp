@@ -18,6 +18,13 @@ class SteadyShearExperiment : public Experiment {
   bool abscissa_is_rate = false;
   double eps_n = -1, mu_p = -1;  // from the data columns; < 0: from the parameter set
 
+  std::string data_parameters() const override {
+    std::string s;
+    if (eps_n >= 0) s += "eps_n = " + std::to_string(eps_n);
+    if (mu_p >= 0) s += std::string(s.empty() ? "" : ", ") + "mu_p = " + std::to_string(mu_p);
+    return s;
+  }
+
   Prediction predict(const io::ParameterSet& set) const override {
     Prediction out;
     if (!set.collisional) {

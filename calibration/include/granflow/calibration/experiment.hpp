@@ -44,6 +44,8 @@ class Experiment {
   std::string data_file;
   std::vector<Curve> curves;
   virtual Prediction predict(const io::ParameterSet& params) const = 0;
+  // Parameters the experiment takes from its data instead of the set (written into the fitted file).
+  virtual std::string data_parameters() const { return ""; }
   // Highest abscissa value (for the steady-shear V_sd check).
   double x_max() const;
 };
