@@ -1,16 +1,105 @@
-// Placeholder until the calibrate job exists; registered so --help lists it.
+// granflow calibrate: fit a parameter set to measured curves (issue 4; docs/calibration.md).
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
 #include <iostream>
+#include <string>
+
+#include <granflow/calibration/fit.hpp>
+#include <granflow/calibration/job.hpp>
+#include <granflow/calibration/synthesize.hpp>
 
 #include "commands.hpp"
+#include "io/input_error.hpp"
+#include "io/parameter_set.hpp"
 
 namespace granflow::cli {
 
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CalibrateOptions {
+  std::string job;
+  std::string out;
+  bool force = false;
+  unsigned threads = 0;
+  bool no_plot = false;
+  bool quiet = false;
+  bool bench = false;
+  bool evaluate = false;
+  std::string synthesize;  // truth parameter set
+  double noise = 0.02;
+  unsigned long seed = 1;
+  long stride = 1;
+};
+
+void run_calibrate(const CalibrateOptions& o) {
+  using namespace calibration;
+  if (!o.synthesize.empty()) {
+    SynthesisOptions s;
+    s.truth = io::load_parameter_set(o.synthesize);
+    s.noise = o.noise;
+    s.seed = o.seed;
+    s.stride = o.stride;
+    synthesize_job_data(o.job, s);
+    std::cerr << "calibrate: wrote the data files of the element experiments of " << o.job << " from "
+              << s.truth.file << " (noise " << o.noise << ", seed " << o.seed << ")\n";
+    return;
+  }
+  const CalibrationJob job = load_job(o.job);
+  const std::string out = o.out.empty() ? fs::path(o.job).stem().string() + "_fit" : o.out;
+  if (fs::exists(out) && !o.force)
+    throw io::InputError(io::where(out) + "output directory exists; pass --force to replace it");
+  Objective obj(job, o.threads);
+  FitOptions fo;
+  fo.progress = !o.quiet;
+  fo.evaluate_only = o.evaluate;
+  const FitResult r = fit(obj, fo);
+  if (!o.quiet) std::cout << format_report(obj, r);
+  write_outputs(obj, r, out, o.force, !o.no_plot);
+  std::cerr << "calibrate: wrote " << out << "/" << job.output_name << ".toml and the reports in " << out << "/\n";
+}
+
+void run_bench(const CalibrateOptions& o) {
+  using namespace calibration;
+  const std::string dir = io::data_directory() + "/calibration/";
+  const char* jobs[] = {"dem_collisional_mu0.toml", "dem_collisional_mu05.toml", "frictional_synthetic.toml"};
+  std::printf("%-30s %8s %8s %10s %12s %12s %9s\n", "job", "threads", "params", "evals", "misfit0", "misfit", "time[s]");
+  for (const char* name : jobs) {
+    const CalibrationJob job = load_job(dir + name);
+    Objective obj(job, o.threads);
+    FitOptions fo;
+    fo.progress = false;
+    const FitResult r = fit(obj, fo);
+    std::printf("%-30s %8u %8zu %10ld %12.5g %12.5g %9.3f\n", name, obj.threads(), job.free.size(), r.evaluations,
+                r.at_start.misfit, r.at_best.misfit, r.seconds);
+    std::fflush(stdout);
+  }
+}
+
+}  // namespace
+
 void register_calibrate(CLI::App& app) {
-  auto* cmd = app.add_subcommand("calibrate", "(calibrate: not yet implemented in this version)");
-  cmd->allow_extras();
-  cmd->callback([] {
-    std::cerr << "granflow calibrate: not implemented yet\n";
-    std::exit(3);
+  auto o = std::make_shared<CalibrateOptions>();
+  auto* cmd = app.add_subcommand("calibrate", "Fit a parameter set to measured curves (docs/calibration.md)");
+  cmd->add_option("job", o->job, "Calibration job (TOML)");
+  cmd->add_option("--out", o->out, "Output directory (default: <job>_fit)");
+  cmd->add_flag("--force", o->force, "Replace an existing output directory");
+  cmd->add_option("--threads", o->threads, "Threads for the objective (0: all cores)")->capture_default_str();
+  cmd->add_flag("--no-plot", o->no_plot, "Do not draw fit.png");
+  cmd->add_flag("--quiet", o->quiet, "No progress line, no report on stdout");
+  cmd->add_flag("--evaluate", o->evaluate, "Only evaluate the starting set (misfit, RMSE, R2, identifiability); no fit");
+  cmd->add_flag("--bench", o->bench, "Time the shipped DEM and synthetic-frictional fits and print the figures");
+  cmd->add_option("--synthesize", o->synthesize,
+                  "Write the job's element-test data files from this parameter set instead of fitting");
+  cmd->add_option("--noise", o->noise, "Relative noise of --synthesize")->capture_default_str();
+  cmd->add_option("--seed", o->seed, "Seed of --synthesize")->capture_default_str();
+  cmd->add_option("--stride", o->stride, "Keep every n-th output row in --synthesize")->capture_default_str();
+  cmd->callback([o] {
+    if (o->bench) return run_bench(*o);
+    if (o->job.empty()) throw io::InputError("granflow calibrate: give a job file (or --bench)");
+    run_calibrate(*o);
   });
 }
 

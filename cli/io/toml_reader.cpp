@@ -205,6 +205,20 @@ std::vector<double> TomlTable::numbers(const std::string& key, Bounds b, bool al
   return out;
 }
 
+std::vector<std::string> TomlTable::strings(const std::string& key, bool allow_scalar) {
+  const toml::node* n = node(key);
+  if (!n) fail(key, "required key is missing (an array of strings)");
+  std::vector<std::string> out;
+  if (n->is_string() && allow_scalar) return {n->as_string()->get()};
+  if (!n->is_array()) fail(key, "expected an array of strings, got " + type_name(*n));
+  for (const auto& v : *n->as_array()) {
+    if (!v.is_string()) fail(key, "expected strings, got " + type_name(v));
+    out.push_back(v.as_string()->get());
+  }
+  if (out.empty()) fail(key, "array is empty");
+  return out;
+}
+
 TomlTable TomlTable::table(const std::string& key) {
   auto t = optional_table(key);
   if (!t) fail(key, "required table [" + dotted(key) + "] is missing");

@@ -46,6 +46,7 @@ class TomlTable {
   std::string choice(const std::string& key, const std::vector<std::string>& allowed, const std::string& fallback);
   bool boolean_or(const std::string& key, bool fallback);
   std::vector<double> numbers(const std::string& key, Bounds b = Bounds::any(), bool allow_scalar = true);
+  std::vector<std::string> strings(const std::string& key, bool allow_scalar = true);
   TomlTable table(const std::string& key);
   std::optional<TomlTable> optional_table(const std::string& key);
   std::vector<TomlTable> array_of_tables(const std::string& key);

@@ -1,0 +1,105 @@
+// Experiments of a calibration: a model computation paired with measured curves.
+// Each curve is one data column against one abscissa column, mapped to one model output.
+// Two kinds: steady simple-shear flow curves from the closed forms of MODEL.md 5.3
+// (the DEM / shear-cell case) and element tests run by the element-test driver.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "io/parameter_set.hpp"
+
+namespace granflow::io {
+class TomlTable;
+}
+
+namespace granflow::calibration {
+
+struct Curve {
+  std::string experiment;    // name of the experiment (with its split values)
+  std::string data_column;   // measured column
+  std::string model_output;  // model quantity it is compared with
+  std::string abscissa;      // abscissa column (for labels)
+  std::vector<double> x, y;  // data, x strictly increasing
+  std::vector<long> lines;   // file line of each point (first of averaged duplicates)
+  double weight = 1.0;
+  std::string label() const { return experiment + ":" + data_column; }
+};
+
+// Model values at each curve's abscissae (values[c][i]). A value the model cannot produce is
+// NaN; a whole failed computation sets ok = false with a message.
+struct Prediction {
+  std::vector<std::vector<double>> values;
+  bool ok = true;
+  std::string error;
+};
+
+class Experiment {
+ public:
+  virtual ~Experiment() = default;
+  std::string name;
+  std::string kind;               // "steady_shear" or "element"
+  std::string abscissa_quantity;  // time, strain, shear_rate, solid_fraction
+  std::string data_file;
+  std::vector<Curve> curves;
+  virtual Prediction predict(const io::ParameterSet& params) const = 0;
+  // Parameters the experiment takes from its data instead of the set (written into the fitted file).
+  virtual std::string data_parameters() const { return ""; }
+  // Highest abscissa value (for the steady-shear V_sd check).
+  double x_max() const;
+};
+
+// Selection of rows of a data file: the part of an [[experiments]] table shared by all kinds.
+struct DataSelection {
+  std::string file;                      // resolved path
+  std::string abscissa;                  // column
+  std::string quantity;                  // time | strain | shear_rate | solid_fraction
+  std::vector<std::pair<std::string, double>> filter;
+  std::vector<std::string> split_by;
+  std::vector<std::string> extra_columns;  // columns the experiment reads per group (constant within it)
+  double x_lo = -1e300, x_hi = 1e300;
+  bool average_duplicates = false;
+  std::vector<std::pair<std::string, std::string>> targets;  // data column -> model output
+  std::vector<double> target_weights;
+  double weight = 1.0;
+};
+
+// One group of rows after filtering and splitting: its curves and the values of the extra columns.
+struct DataGroup {
+  std::string suffix;  // "[restitution_e=0.7]" for split groups, else ""
+  std::vector<Curve> curves;
+  std::vector<double> extra;  // value of each extra column (checked constant in the group)
+};
+
+std::vector<DataGroup> select_data(const DataSelection& sel, const std::string& experiment_name);
+
+// Steady simple shear (closed forms of MODEL.md 5.3): outputs p, tau, T, mu.
+struct SteadyShearSpec {
+  bool dimensionless = true;      // p, tau in rho_p d^2 gammadot^2; T in d^2 gammadot^2
+  double shear_rate = 1.0;        // when the abscissa is the solid fraction
+  double solid_fraction = 0.0;    // when the abscissa is the shear rate
+  std::string restitution_column; // take eps_n from this column (constant per curve group)
+  std::string friction_column;    // take mu_p from this column
+};
+std::vector<std::shared_ptr<const Experiment>> make_steady_shear_experiments(const std::string& name,
+                                                                               const DataSelection& sel,
+                                                                               const SteadyShearSpec& spec);
+const std::vector<std::string>& steady_shear_outputs();
+
+// Element tests through granflow_elementtest (when the library is built).
+bool element_tests_available();
+const std::vector<std::string>& element_test_outputs();
+std::vector<std::shared_ptr<const Experiment>> make_element_experiments(const std::string& name,
+                                                                        const DataSelection& sel,
+                                                                        io::TomlTable& test_table,
+                                                                        const std::string& model_abscissa);
+
+// Synthetic data for an element experiment whose data file does not exist yet: runs the test
+// with `truth`, keeps every `stride`-th output row after the first, multiplies every target by
+// (1 + noise * N(0,1)) from a generator seeded with `seed` and writes sel.file with the abscissa
+// and target columns. Used by the round-trip tests and the benchmark's synthetic curves.
+void synthesize_element_data(const DataSelection& sel, io::TomlTable& test_table, const std::string& model_abscissa,
+                             const io::ParameterSet& truth, double noise, unsigned long seed, long stride);
+
+}  // namespace granflow::calibration

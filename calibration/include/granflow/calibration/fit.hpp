@@ -1,0 +1,129 @@
+// The fit: misfit of a parameter vector over all curves (evaluated in parallel, reduced in a
+// fixed order so the result does not depend on the thread count), a global NLopt search
+// followed by local refinement, and the local identifiability analysis at the optimum.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "experiment.hpp"
+#include "job.hpp"
+
+namespace granflow::calibration {
+
+// Persistent workers running parallel_for(n, f): f(i) for i < n, each index exactly once.
+class ThreadPool {
+ public:
+  explicit ThreadPool(unsigned threads);
+  ~ThreadPool();
+  ThreadPool(const ThreadPool&) = delete;
+  ThreadPool& operator=(const ThreadPool&) = delete;
+  void parallel_for(std::size_t n, const std::function<void(std::size_t)>& f);
+  unsigned size() const { return static_cast<unsigned>(workers_.size()) + 1; }
+
+ private:
+  void work();
+  std::vector<std::thread> workers_;
+  std::mutex m_;
+  std::condition_variable cv_, done_cv_;
+  const std::function<void(std::size_t)>* job_ = nullptr;
+  std::size_t n_ = 0;
+  std::atomic<std::size_t> next_{0};
+  std::size_t busy_ = 0;
+  unsigned long generation_ = 0;
+  bool stop_ = false;
+};
+
+struct CurveEvaluation {
+  std::vector<double> model;  // at the data abscissae (NaN where the model failed)
+  double rmse = 0;            // in data units
+  double r2 = 0;              // 1 - SS_res / SS_tot in data units
+  double misfit = 0;          // weighted, normalised contribution to the total misfit
+  std::string failure;        // why the model failed, if it did
+};
+
+struct Evaluation {
+  double misfit = 0;
+  std::vector<double> residuals;      // weighted, normalised; misfit = sum of squares
+  std::vector<CurveEvaluation> curves;
+};
+
+class Objective {
+ public:
+  // threads = 0: all cores. Throws an InputError when a log misfit meets a non-positive data value.
+  Objective(const CalibrationJob& job, unsigned threads);
+
+  std::size_t dimension() const { return job_.free.size(); }
+  // Parameter values <-> unit-cube coordinates (log-scaled parameters are uniform in log).
+  std::vector<double> to_unit(const std::vector<double>& theta) const;
+  std::vector<double> from_unit(const std::vector<double>& u) const;
+  std::vector<double> start_values() const;
+  io::ParameterSet parameters_at(const std::vector<double>& theta) const;
+
+  Evaluation evaluate(const std::vector<double>& theta) const;  // full detail
+  double misfit(const std::vector<double>& theta) const { return evaluate(theta).misfit; }
+
+  struct CurveRef {
+    std::size_t experiment, curve;
+  };
+  const std::vector<CurveRef>& curves() const { return curves_; }
+  const Curve& curve(std::size_t c) const;
+  const CalibrationJob& job() const { return job_; }
+  std::size_t residual_count() const { return n_residuals_; }
+  unsigned threads() const { return pool_.size(); }
+
+ private:
+  const CalibrationJob& job_;
+  std::vector<CurveRef> curves_;
+  std::vector<double> scale_;  // per curve normalisation
+  std::size_t n_residuals_ = 0;
+  mutable ThreadPool pool_;
+};
+
+struct Identifiability {
+  Eigen::MatrixXd sensitivity;  // curves x parameters: RMS change of the normalised curve per unit change of ln(theta)
+  Eigen::MatrixXd correlation;  // parameters x parameters, from (S^T S)^-1 (NaN where singular)
+  std::vector<double> rel_sd;   // approximate relative standard deviation of each parameter
+  std::vector<std::pair<std::size_t, std::size_t>> correlated;  // |correlation| > 0.95
+  bool singular = false;
+  long evaluations = 0;
+};
+
+struct FitOptions {
+  bool progress = true;        // progress line on stderr
+  bool evaluate_only = false;  // no optimisation: report the misfit and identifiability at the start values
+};
+
+struct FitResult {
+  std::vector<double> start, theta;
+  Evaluation at_start, at_best;
+  long evaluations = 0, global_evaluations = 0, local_evaluations = 0;
+  double seconds = 0;
+  std::vector<int> on_bound;  // -1 lower, +1 upper, 0 inside (within 1e-6 of the range)
+  Identifiability identifiability;
+  io::ParameterSet fitted;
+  std::string stop_reason;
+  unsigned threads = 1;
+};
+
+FitResult fit(const Objective& objective, const FitOptions& options);
+Identifiability identifiability(const Objective& objective, const std::vector<double>& theta, double step);
+
+// Writes fitted TOML, report.txt, report_curves.csv, report_parameters.csv, correlation.csv,
+// sensitivity.csv, curves.csv and fit.png into `dir` (via a temporary directory renamed at the end).
+// Throws if `dir` exists and `force` is false.
+void write_outputs(const Objective& objective, const FitResult& result, const std::string& dir,
+                   bool force, bool plot = true);
+
+// The text report (also printed by the command).
+std::string format_report(const Objective& objective, const FitResult& result);
+
+}  // namespace granflow::calibration

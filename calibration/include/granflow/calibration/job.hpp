@@ -1,0 +1,64 @@
+// A calibration job (data/calibration/*.toml): the parameter set to start from, the free
+// parameters with their bounds, the experiments (element tests or steady simple-shear flow
+// curves, each paired with a CSV of data), the misfit and the optimisation algorithm.
+// Read strictly: unknown keys, wrong types and out-of-range values are errors naming file,
+// line and key (see docs/calibration.md for the format).
+#pragma once
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "io/parameter_set.hpp"
+
+namespace granflow::calibration {
+
+class Experiment;
+
+// One free parameter, addressed as "section.key" of a parameter set (frictional.phi_c_deg, ...).
+struct FreeParameter {
+  std::string key;
+  double lower = 0, upper = 0;
+  bool log = false;                    // search in log(value): for parameters spanning decades
+  std::optional<double> start;         // default: the value in the starting set
+};
+
+enum class MisfitScale { Linear, Log };
+enum class Normalise { Rms, Range, None };
+
+struct MisfitSpec {
+  MisfitScale scale = MisfitScale::Linear;
+  Normalise normalise = Normalise::Rms;  // linear misfit only: residuals divided by the curve's RMS / range
+  double failure_penalty = 1e3;          // residual assigned to every point of a curve the model cannot compute
+};
+
+struct AlgorithmSpec {
+  std::string global = "GN_CRS2_LM";    // or "none"
+  std::string local = "LN_BOBYQA";      // or "none"
+  long global_evaluations = 500;
+  long local_evaluations = 500;
+  double max_time_s = 0;                // 0: no wall-clock limit (results then depend on the machine)
+  unsigned long seed = 12345;
+  long starts = 1;                      // local runs: from the global optimum, then from seeded random points
+  double xtol_rel = 1e-8;
+  double ftol_rel = 1e-12;
+  double fd_step = 1e-4;                // relative step of the finite-difference Jacobian at the optimum
+};
+
+struct CalibrationJob {
+  std::string file;         // the job file
+  std::string name;
+  io::ParameterSet start;   // parameter set the fit starts from (and whose other values it keeps)
+  std::vector<FreeParameter> free;
+  std::vector<std::shared_ptr<const Experiment>> experiments;
+  MisfitSpec misfit;
+  AlgorithmSpec algorithm;
+  std::string output_name = "fitted";  // stem of the fitted parameter file
+};
+
+// Reads and validates a job; loads and checks every data file it names.
+CalibrationJob load_job(const std::string& path);
+
+}  // namespace granflow::calibration

@@ -1,0 +1,236 @@
+// Outputs of a fit: the fitted parameter set, reports, curves for plotting and the PNG.
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include <unistd.h>
+
+#include "granflow/calibration/experiment.hpp"
+#include "granflow/calibration/fit.hpp"
+#include "io/input_error.hpp"
+#include "io/toml_reader.hpp"
+
+#ifndef GRANFLOW_SOURCE_DIR
+#define GRANFLOW_SOURCE_DIR "."
+#endif
+
+namespace granflow::calibration {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string num(double v, int prec = 6) {
+  std::ostringstream os;
+  os << std::setprecision(prec) << v;
+  return os.str();
+}
+
+std::string csv_quote(const std::string& s) {
+  if (s.find_first_of(",\"") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+void write_file(const fs::path& p, const std::string& text) {
+  std::ofstream out(p);
+  out << text;
+  if (!out) throw std::runtime_error("cannot write " + p.string());
+}
+
+std::string fitted_toml(const CalibrationJob& job, const FitResult& r) {
+  io::ParameterSet s = r.fitted;
+  s.name = (job.start.name.empty() ? job.name : job.start.name) + " -- calibrated by job " + job.name;
+  s.source = "granflow calibrate " + job.file + " (misfit " + num(r.at_start.misfit) + " -> " + num(r.at_best.misfit) +
+             "); started from " + (job.start.file.empty() ? job.start.name : job.start.file);
+  std::string text = "# Fitted parameter set written by granflow calibrate; loads as it is in granflow element.\n# Free: ";
+  for (std::size_t j = 0; j < job.free.size(); ++j) text += (j ? ", " : "") + job.free[j].key;
+  text += "\n";
+  bool first = true;
+  for (const auto& e : job.experiments)
+    if (!e->data_parameters().empty()) {
+      if (first) text += "# The fit took these from the data, per curve; the values below are the start set's:\n";
+      first = false;
+      text += "#   " + e->name + ": " + e->data_parameters() + "\n";
+    }
+  text += io::format_parameter_set(s);
+  // The file must load unchanged: parse it back with the same validation as any parameter file.
+  const toml::table doc = toml::parse(std::string_view(text), std::string_view("fitted parameter set"));
+  io::TomlTable root(doc, "fitted parameter set");
+  (void)io::parse_parameter_set(root);
+  return text;
+}
+
+std::string python_with_matplotlib() {
+  for (const char* cand : {"python3", "/usr/bin/python3"}) {
+    const std::string cmd = std::string(cand) + " -c 'import matplotlib' >/dev/null 2>&1";
+    if (std::system(cmd.c_str()) == 0) return cand;
+  }
+  return "";
+}
+
+}  // namespace
+
+std::string format_report(const Objective& obj, const FitResult& r) {
+  const CalibrationJob& job = obj.job();
+  std::ostringstream os;
+  std::size_t points = obj.residual_count();
+  os << "granflow calibrate: job '" << job.name << "' (" << job.file << ")\n";
+  os << "starting set: " << job.start.name << " (" << job.start.file << ")\n";
+  os << "experiments: " << job.experiments.size() << ", curves: " << obj.curves().size() << ", points: " << points
+     << ", threads: " << r.threads << "\n";
+  os << "misfit: " << (job.misfit.scale == MisfitScale::Log ? "log" : "linear") << " least squares, each curve "
+     << (job.misfit.scale == MisfitScale::Log ? "averaged over its points"
+                                              : job.misfit.normalise == Normalise::Rms     ? "divided by its RMS"
+                                                : job.misfit.normalise == Normalise::Range ? "divided by its range"
+                                                                                           : "unscaled")
+     << ", weighted\n";
+  os << "algorithm: global " << job.algorithm.global << " (" << r.global_evaluations << " evaluations), local "
+     << job.algorithm.local << " x" << job.algorithm.starts << " (" << r.local_evaluations << " evaluations), seed "
+     << job.algorithm.seed << "\n";
+  os << "stopped by: " << r.stop_reason << "\n";
+  os << "misfit: start " << num(r.at_start.misfit, 8) << " -> final " << num(r.at_best.misfit, 8) << "   ("
+     << r.evaluations << " evaluations + " << r.identifiability.evaluations << " for the Jacobian, " << num(r.seconds, 4)
+     << " s)\n\n";
+
+  os << std::left << std::setw(24) << "parameter" << std::right << std::setw(13) << "start" << std::setw(13) << "fitted"
+     << std::setw(12) << "lower" << std::setw(12) << "upper" << std::setw(8) << "scale" << std::setw(10) << "rel.sd"
+     << "  note\n";
+  for (std::size_t j = 0; j < job.free.size(); ++j) {
+    const FreeParameter& p = job.free[j];
+    os << std::left << std::setw(24) << p.key << std::right << std::setw(13) << num(r.start[j]) << std::setw(13)
+       << num(r.theta[j]) << std::setw(12) << num(p.lower) << std::setw(12) << num(p.upper) << std::setw(8)
+       << (p.log ? "log" : "lin") << std::setw(10) << num(r.identifiability.rel_sd[j], 3) << "  "
+       << (r.on_bound[j] < 0 ? "ON LOWER BOUND" : r.on_bound[j] > 0 ? "ON UPPER BOUND" : "") << "\n";
+  }
+  os << "(rel.sd: approximate relative standard deviation from the Jacobian at the optimum and the final misfit)\n\n";
+
+  os << std::left << std::setw(52) << "curve" << std::right << std::setw(6) << "n" << std::setw(13) << "RMSE start"
+     << std::setw(13) << "RMSE" << std::setw(10) << "R2 start" << std::setw(10) << "R2" << "\n";
+  for (std::size_t c = 0; c < obj.curves().size(); ++c) {
+    const Curve& cv = obj.curve(c);
+    const auto& a = r.at_start.curves[c];
+    const auto& b = r.at_best.curves[c];
+    os << std::left << std::setw(52) << (cv.label() + " ~ " + cv.model_output) << std::right << std::setw(6)
+       << cv.x.size() << std::setw(13) << num(a.rmse, 4) << std::setw(13) << num(b.rmse, 4) << std::setw(10)
+       << num(a.r2, 4) << std::setw(10) << num(b.r2, 4) << (b.failure.empty() ? "" : "  model failed: " + b.failure)
+       << "\n";
+  }
+
+  const Identifiability& id = r.identifiability;
+  os << "\nlocal identifiability at the optimum (finite differences, step " << job.algorithm.fd_step
+     << " of each range)\nsensitivity: RMS change of each normalised curve per unit change of ln(parameter)\n";
+  os << std::left << std::setw(52) << "curve" << std::right;
+  for (const auto& p : job.free) os << std::setw(14) << p.key.substr(p.key.find('.') + 1);
+  os << "\n";
+  for (std::size_t c = 0; c < obj.curves().size(); ++c) {
+    os << std::left << std::setw(52) << obj.curve(c).label() << std::right;
+    for (std::size_t j = 0; j < job.free.size(); ++j) os << std::setw(14) << num(id.sensitivity(c, j), 3);
+    os << "\n";
+  }
+  os << "correlation matrix:\n" << std::left << std::setw(24) << "" << std::right;
+  for (const auto& p : job.free) os << std::setw(14) << p.key.substr(p.key.find('.') + 1);
+  os << "\n";
+  for (std::size_t j = 0; j < job.free.size(); ++j) {
+    os << std::left << std::setw(24) << job.free[j].key << std::right;
+    for (std::size_t k = 0; k < job.free.size(); ++k) os << std::setw(14) << num(id.correlation(j, k), 3);
+    os << "\n";
+  }
+  if (id.singular) os << "WARNING: the Jacobian is rank-deficient: some combination of parameters does not change any curve\n";
+  if (id.correlated.empty()) {
+    os << "no parameter pair with |correlation| > 0.95\n";
+  } else {
+    for (const auto& [j, k] : id.correlated)
+      os << "WARNING: |correlation(" << job.free[j].key << ", " << job.free[k].key << ")| = "
+         << num(std::fabs(id.correlation(j, k)), 4) << " > 0.95: these data do not separate them\n";
+  }
+  return os.str();
+}
+
+void write_outputs(const Objective& obj, const FitResult& r, const std::string& dir, bool force, bool plot) {
+  const CalibrationJob& job = obj.job();
+  const fs::path target(dir);
+  if (fs::exists(target) && !force)
+    throw io::InputError(io::where(dir) + "output directory exists; pass --force to replace it");
+  const fs::path tmp = target.parent_path() / (target.filename().string() + ".tmp-" + std::to_string(getpid()));
+  fs::remove_all(tmp);
+  fs::create_directories(tmp);
+
+  write_file(tmp / (job.output_name + ".toml"), fitted_toml(job, r));
+  write_file(tmp / "report.txt", format_report(obj, r));
+
+  std::ostringstream pc;
+  pc << std::setprecision(12) << "key,start,fitted,lower,upper,log,on_bound,rel_sd\n";
+  for (std::size_t j = 0; j < job.free.size(); ++j) {
+    const FreeParameter& p = job.free[j];
+    pc << p.key << "," << r.start[j] << "," << r.theta[j] << "," << p.lower << "," << p.upper << "," << (p.log ? 1 : 0)
+       << "," << (r.on_bound[j] < 0 ? "lower" : r.on_bound[j] > 0 ? "upper" : "") << "," << r.identifiability.rel_sd[j]
+       << "\n";
+  }
+  write_file(tmp / "report_parameters.csv", pc.str());
+
+  std::ostringstream cc, sc, xc;
+  cc << std::setprecision(10)
+     << "experiment,data_column,model_output,points,weight,rmse_start,r2_start,rmse,r2,misfit_start,misfit\n";
+  sc << std::setprecision(8) << "curve";
+  for (const auto& p : job.free) sc << "," << p.key;
+  sc << "\n";
+  xc << std::setprecision(10) << "experiment,data_column,model_output,abscissa,quantity,x,data,model_start,model_fit\n";
+  for (std::size_t c = 0; c < obj.curves().size(); ++c) {
+    const Curve& cv = obj.curve(c);
+    const auto& a = r.at_start.curves[c];
+    const auto& b = r.at_best.curves[c];
+    cc << csv_quote(cv.experiment) << "," << cv.data_column << "," << cv.model_output << "," << cv.x.size() << ","
+       << cv.weight << "," << a.rmse << "," << a.r2 << "," << b.rmse << "," << b.r2 << "," << a.misfit << "," << b.misfit
+       << "\n";
+    sc << csv_quote(cv.label());
+    for (std::size_t j = 0; j < job.free.size(); ++j) sc << "," << r.identifiability.sensitivity(c, j);
+    sc << "\n";
+    const std::string& q = job.experiments[obj.curves()[c].experiment]->abscissa_quantity;
+    for (std::size_t i = 0; i < cv.x.size(); ++i)
+      xc << csv_quote(cv.experiment) << "," << cv.data_column << "," << cv.model_output << "," << cv.abscissa << "," << q
+         << "," << cv.x[i] << "," << cv.y[i] << "," << a.model[i] << "," << b.model[i] << "\n";
+  }
+  write_file(tmp / "report_curves.csv", cc.str());
+  write_file(tmp / "sensitivity.csv", sc.str());
+  write_file(tmp / "curves.csv", xc.str());
+
+  std::ostringstream kc;
+  kc << std::setprecision(8) << "parameter";
+  for (const auto& p : job.free) kc << "," << p.key;
+  kc << "\n";
+  for (std::size_t j = 0; j < job.free.size(); ++j) {
+    kc << job.free[j].key;
+    for (std::size_t k = 0; k < job.free.size(); ++k) kc << "," << r.identifiability.correlation(j, k);
+    kc << "\n";
+  }
+  write_file(tmp / "correlation.csv", kc.str());
+
+  if (plot) {
+    const std::string py = python_with_matplotlib();
+    const std::string script = std::string(GRANFLOW_SOURCE_DIR) + "/scripts/plot_calibration.py";
+    if (py.empty() || !fs::exists(script)) {
+      std::cerr << "calibrate: fit.png skipped (" << (py.empty() ? "no python3 with matplotlib" : "no " + script)
+                << "); curves.csv holds the curves\n";
+    } else {
+      std::string title = job.name;
+      for (char& ch : title)
+        if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '_' && ch != '-' && ch != '.') ch = ' ';
+      const std::string cmd = py + " '" + script + "' '" + (tmp / "curves.csv").string() + "' '" +
+                              (tmp / "fit.png").string() + "' '" + title + "'";
+      if (std::system(cmd.c_str()) != 0) std::cerr << "calibrate: the plot script failed; curves.csv holds the curves\n";
+    }
+  }
+
+  if (fs::exists(target)) fs::remove_all(target);
+  fs::rename(tmp, target);
+}
+
+}  // namespace granflow::calibration

@@ -1,0 +1,91 @@
+#include "granflow/calibration/parameters.hpp"
+
+#include <cmath>
+#include <functional>
+#include <map>
+
+#include "io/input_error.hpp"
+
+namespace granflow::calibration {
+
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+struct Accessor {
+  std::function<double(const io::ParameterSet&)> get;
+  std::function<void(io::ParameterSet&, double)> set;
+};
+
+#define GF_FRICTIONAL(field) \
+  Accessor { [](const io::ParameterSet& s) { return s.frictional->field; }, [](io::ParameterSet& s, double v) { s.frictional->field = v; } }
+#define GF_COLLISIONAL(field) \
+  Accessor { [](const io::ParameterSet& s) { return s.collisional->field; }, [](io::ParameterSet& s, double v) { s.collisional->field = v; } }
+
+const std::map<std::string, Accessor>& accessors() {
+  static const std::map<std::string, Accessor> table = {
+      {"frictional.K0", GF_FRICTIONAL(K0)},
+      {"frictional.nu", GF_FRICTIONAL(nu)},
+      {"frictional.n", GF_FRICTIONAL(n)},
+      {"frictional.phi_c_deg",
+       {[](const io::ParameterSet& s) { return s.frictional->phi_c / kDeg; },
+        [](io::ParameterSet& s, double v) { s.frictional->phi_c = v * kDeg; }}},
+      {"frictional.e_ref", GF_FRICTIONAL(e_ref)},
+      {"frictional.lambda_c", GF_FRICTIONAL(lambda_c)},
+      {"frictional.xi", GF_FRICTIONAL(xi)},
+      {"frictional.A_d", GF_FRICTIONAL(A_d)},
+      {"frictional.k_p", GF_FRICTIONAL(k_p)},
+      {"frictional.n_p", GF_FRICTIONAL(n_p)},
+      {"frictional.n_d", GF_FRICTIONAL(n_d)},
+      {"collisional.rho_p", GF_COLLISIONAL(rho_p)},
+      {"collisional.d", GF_COLLISIONAL(d)},
+      {"collisional.V_sd", GF_COLLISIONAL(V_sd)},
+      {"collisional.e_sd",
+       {[](const io::ParameterSet& s) { return 1.0 / s.collisional->V_sd - 1.0; },
+        [](io::ParameterSet& s, double v) { s.collisional->V_sd = 1.0 / (1.0 + v); }}},
+      {"collisional.V_m", GF_COLLISIONAL(V_m)},
+      {"collisional.eps_n", GF_COLLISIONAL(eps_n)},
+      {"collisional.mu_p", GF_COLLISIONAL(mu_p)},
+  };
+  return table;
+}
+
+#undef GF_FRICTIONAL
+#undef GF_COLLISIONAL
+
+const Accessor& find(const io::ParameterSet& set, const std::string& key) {
+  std::string why;
+  if (!parameter_addressable(set, key, why)) throw io::InputError(why);
+  return accessors().at(key);
+}
+
+}  // namespace
+
+const std::vector<std::string>& settable_keys() {
+  static const std::vector<std::string> keys = [] {
+    std::vector<std::string> k;
+    for (const auto& [name, acc] : accessors()) k.push_back(name);
+    return k;
+  }();
+  return keys;
+}
+
+bool parameter_addressable(const io::ParameterSet& set, const std::string& key, std::string& why) {
+  if (!accessors().count(key)) {
+    why = "'" + key + "' is not a parameter; allowed: ";
+    for (size_t i = 0; i < settable_keys().size(); ++i) why += (i ? ", " : "") + settable_keys()[i];
+    return false;
+  }
+  const bool frictional = key.rfind("frictional.", 0) == 0;
+  if (frictional ? !set.has_frictional() : !set.has_collisional()) {
+    why = "'" + key + "': the starting parameter set has no [" + (frictional ? "frictional" : "collisional") + "] table";
+    return false;
+  }
+  return true;
+}
+
+double get_parameter(const io::ParameterSet& set, const std::string& key) { return find(set, key).get(set); }
+
+void set_parameter(io::ParameterSet& set, const std::string& key, double value) { find(set, key).set(set, value); }
+
+}  // namespace granflow::calibration

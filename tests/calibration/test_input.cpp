@@ -1,0 +1,190 @@
+// Bad input to granflow calibrate: malformed data CSVs and job files get one clear error that
+// names the file and the line (CSV) or the file, line and key (job).
+#include <gtest/gtest.h>
+
+#include <granflow/calibration/fit.hpp>
+#include <granflow/calibration/job.hpp>
+
+#include "helpers.hpp"
+
+namespace granflow::calibration::test {
+
+namespace {
+
+const char* kGoodCsv =
+    "# steady shear, d = rho_p = gammadot = 1\n"
+    "nu,p,s,T,e_r\n"
+    "0.30,0.38,0.16,0.43,0.7\n"
+    "0.40,0.70,0.31,0.33,0.7\n"
+    "0.50,1.84,0.81,0.25,0.7\n";
+
+std::string job_text(const std::string& extra_top = "", const std::string& free = "", const std::string& experiment = "",
+                     const std::string& targets = "{ p = \"p\", s = \"tau\" }") {
+  return "params = \"collisional_element\"\n" + extra_top +
+         "\n[[free]]\nkey = \"collisional.V_m\"\nlower = 0.2\nupper = 0.5\n" + free +
+         "\n[algorithm]\nglobal = \"none\"\nlocal_evaluations = 20\n"
+         "\n[[experiments]]\nname = \"dem\"\nkind = \"steady_shear\"\ndata = \"data.csv\"\nabscissa = \"nu\"\n"
+         "quantity = \"solid_fraction\"\ntargets = " +
+         targets + "\n" + experiment +
+         "\n[experiments.steady_shear]\nrestitution_column = \"e_r\"\n";
+}
+
+struct BadInput : ::testing::Test {
+  Scratch dir;
+  std::string job(const std::string& csv, const std::string& text) {
+    dir.write("data.csv", csv);
+    return dir.write("job.toml", text);
+  }
+};
+
+}  // namespace
+
+TEST_F(BadInput, GoodJobLoads) {
+  const CalibrationJob j = load_job(job(kGoodCsv, job_text()));
+  ASSERT_EQ(j.experiments.size(), 1u);
+  EXPECT_EQ(j.experiments[0]->curves.size(), 2u);
+  EXPECT_EQ(j.experiments[0]->curves[0].x.size(), 3u);
+}
+
+// ---- data CSV ------------------------------------------------------------------------
+
+TEST_F(BadInput, CsvMissingColumnNamesFileLineAndColumn) {
+  const std::string p = job("nu,p,T,e_r\n0.3,0.38,0.43,0.7\n", job_text());
+  expect_input_error([&] { load_job(p); }, {"data.csv:1:", "needs column 's'", "header 'nu,p,T,e_r'"});
+}
+
+TEST_F(BadInput, CsvNonNumericCellNamesFileAndLine) {
+  std::string csv = kGoodCsv;
+  csv.replace(csv.find("0.31"), 4, "abc");
+  const std::string p = job(csv, job_text());
+  expect_input_error([&] { load_job(p); }, {"data.csv:4", "'abc' is not a number"});
+}
+
+TEST_F(BadInput, CsvUnsortedAbscissaNamesFileAndLine) {
+  std::string csv = kGoodCsv;
+  csv.replace(csv.find("0.50,"), 5, "0.35,");
+  const std::string p = job(csv, job_text());
+  expect_input_error([&] { load_job(p); }, {"data.csv:5:", "must increase strictly", "0.35 follows 0.4"});
+}
+
+TEST_F(BadInput, CsvNaNNamesFileAndLine) {
+  std::string csv = kGoodCsv;
+  csv.replace(csv.find("0.38"), 4, "nan");
+  const std::string p = job(csv, job_text());
+  expect_input_error([&] { load_job(p); }, {"data.csv:3", "'nan' is not a finite number"});
+}
+
+TEST_F(BadInput, CsvRepeatedAbscissaNeedsAverage) {
+  std::string csv = std::string(kGoodCsv) + "0.50,1.86,0.83,0.26,0.7\n";
+  const std::string p = job(csv, job_text());
+  expect_input_error([&] { load_job(p); }, {"data.csv:6:", "duplicates = \"average\""});
+  const CalibrationJob j = load_job(job(csv, job_text("", "", "duplicates = \"average\"\n")));
+  EXPECT_EQ(j.experiments[0]->curves[0].x.size(), 3u);
+  EXPECT_NEAR(j.experiments[0]->curves[0].y.back(), 1.85, 1e-12);
+}
+
+TEST_F(BadInput, CsvEmptyAndWrongDelimiter) {
+  expect_input_error([&] { load_job(job("", job_text())); }, {"data.csv", "empty file"});
+  expect_input_error([&] { load_job(job("nu;p;s;T;e_r\n0.3;0.38;0.16;0.43;0.7\n", job_text())); },
+                     {"data.csv:1:", "delimiter must be a comma"});
+}
+
+TEST_F(BadInput, CsvParameterColumnMustBeConstantPerCurve) {
+  std::string csv = kGoodCsv;
+  csv.replace(csv.rfind("0.7"), 3, "0.8");
+  expect_input_error([&] { load_job(job(csv, job_text())); }, {"data.csv:5:", "column 'e_r' must be constant"});
+  // splitting by that column makes two curve groups instead
+  const CalibrationJob j = load_job(job(csv, job_text("", "", "split_by = [\"e_r\"]\n")));
+  EXPECT_EQ(j.experiments.size(), 2u);
+}
+
+TEST_F(BadInput, LogMisfitNeedsPositiveData) {
+  std::string csv = kGoodCsv;
+  csv.replace(csv.find("0.38"), 4, "-0.1");
+  const std::string p = job(csv, job_text("\n[misfit]\nscale = \"log\"\n"));
+  const CalibrationJob j = load_job(p);
+  expect_input_error([&] { Objective o(j, 1); }, {"data.csv:3:", "not positive"});
+}
+
+// ---- job file ------------------------------------------------------------------------
+
+TEST_F(BadInput, JobUnknownKeyNamesFileLineAndKey) {
+  const std::string p = job(kGoodCsv, job_text("", "uper = 3\n"));
+  expect_input_error([&] { load_job(p); }, {"job.toml:", "unknown key 'free[0].uper'"});
+  expect_input_error([&] { load_job(job(kGoodCsv, job_text("", "", "wieght = 2\n"))); },
+                     {"job.toml:", "unknown key 'experiments[0].wieght'"});
+}
+
+TEST_F(BadInput, JobBadFreeParameters) {
+  auto with_free = [&](const std::string& f) {
+    std::string t = job_text();
+    t.replace(t.find("key = \"collisional.V_m\"\nlower = 0.2\nupper = 0.5\n"), 47, f);
+    return job(kGoodCsv, t);
+  };
+  expect_input_error([&] { load_job(with_free("key = \"collisional.Vm\"\nlower = 0.2\nupper = 0.5\n")); },
+                     {"job.toml:", "'free[0].key'", "not a parameter", "collisional.V_m"});
+  expect_input_error([&] { load_job(with_free("key = \"collisional.V_m\"\nlower = 0.5\nupper = 0.2\n")); },
+                     {"job.toml:", "'free[0].upper'", "must exceed lower"});
+  expect_input_error([&] { load_job(with_free("key = \"collisional.V_m\"\nlower = 0.1\nupper = 0.3\n")); },
+                     {"'free[0].lower'", "start value 0.4", "outside"});
+  expect_input_error([&] { load_job(with_free("key = \"frictional.phi_c_deg\"\nlower = 10\nupper = 40\n")); },
+                     {"has no [frictional] table"});
+  expect_input_error([&] { load_job(with_free("key = \"collisional.V_m\"\nlower = 0\nupper = 0.5\nlog = true\n")); },
+                     {"'free[0].lower'", "must be > 0 with log = true"});
+  expect_input_error(
+      [&] { load_job(job(kGoodCsv, job_text("", "\n[[free]]\nkey = \"collisional.V_m\"\nlower = 0.2\nupper = 0.5\n"))); },
+      {"'free[1].key'", "freed twice"});
+}
+
+TEST_F(BadInput, JobBadExperiment) {
+  expect_input_error([&] { load_job(job(kGoodCsv, job_text("", "", "", "{ p = \"pressure\" }"))); },
+                     {"job.toml:", "'experiments[0].targets.p'", "must be one of 'p', 'tau', 'T', 'mu'"});
+  std::string t = job_text();
+  t.replace(t.find("data.csv"), 8, "nothere.csv");
+  expect_input_error([&] { load_job(job(kGoodCsv, t)); }, {"job.toml:", "'experiments[0].data'", "no such file"});
+  expect_input_error([&] { load_job(job(kGoodCsv, job_text("", "", "filter = { e_r = 0.9 }\n"))); },
+                     {"data.csv", "no data row passes the filter e_r = 0.9"});
+  t = job_text();
+  const std::string q = "quantity = \"solid_fraction\"";
+  t.replace(t.find(q), q.size(), "quantity = \"void_ratio\"");
+  expect_input_error([&] { load_job(job(kGoodCsv, t)); }, {"'experiments[0].quantity'", "must be one of"});
+}
+
+TEST_F(BadInput, JobDataAboveTheLowestVsdIsRejected) {
+  // V_sd free down to 0.45 while the data reach 0.5: the closed forms would not exist there.
+  const std::string p =
+      job(kGoodCsv, job_text("", "\n[[free]]\nkey = \"collisional.V_sd\"\nlower = 0.45\nupper = 0.7\nstart = 0.6\n"));
+  expect_input_error([&] { load_job(p); }, {"job.toml", "solid fraction 0.5", "restrict its 'range'"});
+  EXPECT_NO_THROW(load_job(job(kGoodCsv, job_text("", "\n[[free]]\nkey = \"collisional.V_sd\"\nlower = 0.55\nupper = 0.7\n"))));
+}
+
+TEST_F(BadInput, JobBadAlgorithm) {
+  std::string t = job_text();
+  t.replace(t.find("global = \"none\""), 15, "global = \"GN_CRS3\"");
+  expect_input_error([&] { load_job(job(kGoodCsv, t)); }, {"job.toml:", "'algorithm.global'", "GN_CRS2_LM"});
+  t = job_text();
+  t.replace(t.find("local_evaluations = 20"), 22, "local_evaluations = 0");
+  expect_input_error([&] { load_job(job(kGoodCsv, t)); }, {"'algorithm.local_evaluations'", "must be in [1,"});
+  expect_input_error([&] { load_job(job(kGoodCsv, "params = \"collisional_element\"\n[algorithm\n")); },
+                     {"job.toml:2", "TOML syntax error"});
+  expect_input_error([&] { load_job(job(kGoodCsv, "params = \"no_such_set\"\n")); }, {"'params'", "no such file"});
+}
+
+TEST_F(BadInput, OutputsAreNotOverwrittenWithoutForce) {
+  const CalibrationJob j = load_job(job(kGoodCsv, job_text()));
+  Objective obj(j, 1);
+  FitOptions fo;
+  fo.progress = false;
+  const FitResult r = fit(obj, fo);
+  const std::string out = dir.path("out");
+  write_outputs(obj, r, out, false, false);
+  EXPECT_TRUE(fs::exists(out + "/fitted.toml"));
+  expect_input_error([&] { write_outputs(obj, r, out, false, false); }, {"out", "pass --force"});
+  EXPECT_NO_THROW(write_outputs(obj, r, out, true, false));
+  // no temporary folder is left behind
+  int entries = 0;
+  for (const auto& e : fs::directory_iterator(dir.path(""))) entries += e.path().filename().string().find(".tmp-") != std::string::npos;
+  EXPECT_EQ(entries, 0);
+}
+
+}  // namespace granflow::calibration::test
