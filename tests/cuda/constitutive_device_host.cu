@@ -25,17 +25,22 @@ struct Result {
   int substeps;
 };
 
+// One update, the same function on both sides.
+template <class Model>
+GF_HDI Result run_case(const typename Model::Params& p, const Case& c) {
+  Result r;
+  r.state = c.state;
+  r.stress = Mat3<double>::Zero();
+  const UpdateInfo inf = Model::update(p, r.state, c.L, c.dt, r.stress);
+  r.flags = inf.flags;
+  r.substeps = inf.substeps;
+  return r;
+}
+
 template <class Model>
 __global__ void update_kernel(const typename Model::Params p, const Case* cases, Result* out, int n) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= n) return;
-  Result r;
-  r.state = cases[i].state;
-  r.stress = Mat3<double>::Zero();
-  const UpdateInfo inf = Model::update(p, r.state, cases[i].L, cases[i].dt, r.stress);
-  r.flags = inf.flags;
-  r.substeps = inf.substeps;
-  out[i] = r;
+  if (i < n) out[i] = run_case<Model>(p, cases[i]);
 }
 
 namespace {
@@ -115,12 +120,7 @@ int compare(const char* name, const std::vector<Case>& cases) {
   int worst_i = -1, flag_mismatch = 0, plastic_cases = 0, stiff = 0, stiff_differ = 0, same_path = 0;
   const unsigned stiff_flags = info::kSubstepLimit | info::kReturnFallback;
   for (int i = 0; i < n; ++i) {
-    Result h;
-    h.state = cases[i].state;
-    h.stress = Mat3<double>::Zero();
-    const UpdateInfo hinf = Model::update(p, h.state, cases[i].L, cases[i].dt, h.stress);
-    h.flags = hinf.flags;
-    h.substeps = hinf.substeps;
+    const Result h = run_case<Model>(p, cases[i]);
     if (h.state.eps_pd > cases[i].state.eps_pd) ++plastic_cases;
     if ((h.flags | gpu[i].flags) & stiff_flags) {
       ++stiff;
