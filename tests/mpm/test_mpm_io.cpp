@@ -1,0 +1,208 @@
+// Outputs read back with an independent little VTU reader, and bad scenes rejected with a
+// message naming the key.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <sstream>
+
+#include <granflow/mpm/driver.hpp>
+
+#include "io/input_error.hpp"
+#include "io/scene.hpp"
+
+using namespace granflow;
+using namespace granflow::mpm;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::vector<unsigned char> unbase64(const std::string& s) {
+  auto val = [](char c) -> int {
+    if (c >= 'A' && c <= 'Z') return c - 'A';
+    if (c >= 'a' && c <= 'z') return c - 'a' + 26;
+    if (c >= '0' && c <= '9') return c - '0' + 52;
+    if (c == '+') return 62;
+    if (c == '/') return 63;
+    return -1;
+  };
+  std::vector<unsigned char> out;
+  unsigned buf = 0;
+  int bits = 0;
+  for (char c : s) {
+    const int v = val(c);
+    if (v < 0) continue;
+    buf = (buf << 6) | v;
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out.push_back(static_cast<unsigned char>((buf >> bits) & 0xff));
+    }
+  }
+  return out;
+}
+
+struct Vtu {
+  long points = -1, cells = -1;
+  std::map<std::string, std::vector<double>> arrays;  // Float64 arrays, decoded
+  std::map<std::string, int> components;
+};
+
+Vtu read_vtu(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string xml = ss.str();
+  Vtu v;
+  std::smatch m;
+  if (std::regex_search(xml, m, std::regex("NumberOfPoints=\"(\\d+)\" NumberOfCells=\"(\\d+)\""))) {
+    v.points = std::stol(m[1]);
+    v.cells = std::stol(m[2]);
+  }
+  const std::regex da("<DataArray type=\"(\\w+)\" Name=\"(\\w+)\" NumberOfComponents=\"(\\d+)\" format=\"(\\w+)\">([^<]*)</DataArray>");
+  for (auto it = std::sregex_iterator(xml.begin(), xml.end(), da); it != std::sregex_iterator(); ++it) {
+    const std::string type = (*it)[1], name = (*it)[2], fmt = (*it)[4], body = (*it)[5];
+    v.components[name] = std::stoi((*it)[3]);
+    if (type != "Float64") {
+      v.arrays[name] = {};
+      continue;
+    }
+    std::vector<double> vals;
+    if (fmt == "ascii") {
+      std::istringstream is(body);
+      double x;
+      while (is >> x) vals.push_back(x);
+    } else {
+      const std::vector<unsigned char> raw = unbase64(body);
+      std::uint32_t bytes = 0;
+      std::memcpy(&bytes, raw.data(), 4);
+      EXPECT_EQ(bytes + 4, raw.size()) << name;
+      vals.resize(bytes / 8);
+      std::memcpy(vals.data(), raw.data() + 4, bytes);
+    }
+    v.arrays[name] = vals;
+  }
+  return v;
+}
+
+std::string write_tmp(const std::string& name, const std::string& text) {
+  const fs::path p = fs::temp_directory_path() / ("granflow_mpm_test_" + name + ".toml");
+  std::ofstream(p) << text;
+  return p.string();
+}
+
+const char* kGood = R"(
+name = "tiny"
+[grid]
+origin = [0.0, 0.0]
+size = [0.4, 0.2]
+h = 0.02
+[particles]
+per_cell = 4
+[time]
+dt = 1e-4
+[material]
+parameters = "column_collapse"
+model = "frictional"
+[[body]]
+min = [0.0, 0.0]
+max = [0.1, 0.1]
+[[wall]]
+side = "x-"
+type = "free_slip"
+[[wall]]
+side = "y-"
+[[stage]]
+duration = 0.002
+[output]
+times = [0.001]
+)";
+
+std::string load_error(const std::string& name, const std::string& text) {
+  try {
+    const Scene sc = io::load_scene(write_tmp(name, text));
+    make_setup(sc);
+  } catch (const io::InputError& e) {
+    return e.what();
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string replace(std::string s, const std::string& a, const std::string& b) {
+  const auto p = s.find(a);
+  EXPECT_NE(p, std::string::npos) << a;
+  return s.replace(p, a.size(), b);
+}
+
+}  // namespace
+
+TEST(MpmIo, VtuReadBackMatchesFrame) {
+  for (const bool binary : {true, false}) {
+    Scene sc = io::load_scene(write_tmp("good", kGood));
+    sc.output.binary = binary;
+    const SceneSetup su = make_setup(sc);
+    auto r = make_cpu_runner(su);
+    const fs::path out = fs::temp_directory_path() / (binary ? "granflow_mpm_vtu_b" : "granflow_mpm_vtu_a");
+    fs::remove_all(out);
+    RunOptions opt;
+    opt.out_dir = out.string();
+    opt.progress = false;
+    const RunSummary s = run(su, *r, opt);
+    ASSERT_TRUE(s.ok) << s.message;
+    Frame f;
+    r->frame(f, true);
+    ASSERT_TRUE(fs::exists(out / "frames.pvd"));
+    for (const char* csv : {"runout.csv", "tracked.csv", "profile_final.csv"}) EXPECT_TRUE(fs::exists(out / csv));
+    std::vector<fs::path> vtus;
+    for (const auto& e : fs::directory_iterator(out)) {
+      EXPECT_NE(e.path().extension(), ".tmp");
+      if (e.path().extension() == ".vtu") vtus.push_back(e.path());
+    }
+    std::sort(vtus.begin(), vtus.end());
+    ASSERT_GE(vtus.size(), 3u);  // t = 0, t = 0.001, final
+    const Vtu v = read_vtu(vtus.back().string());
+    EXPECT_EQ(v.points, f.n);
+    EXPECT_EQ(v.cells, f.n);
+    for (const char* name : {"position", "velocity", "p", "q", "eps_pd", "T", "eta_c", "K_col"})
+      ASSERT_TRUE(v.arrays.count(name)) << name;
+    EXPECT_EQ(v.components.at("position"), 3);
+    ASSERT_EQ(v.arrays.at("position").size(), static_cast<size_t>(3 * f.n));
+    ASSERT_EQ(v.arrays.at("p").size(), static_cast<size_t>(f.n));
+    for (long i = 0; i < f.n; i += 7) {
+      EXPECT_NEAR(v.arrays.at("position")[3 * i + 1], f.x[f.n + i], 1e-9);
+      EXPECT_NEAR(v.arrays.at("p")[i], f.p[i], 1e-9 * (1 + std::fabs(f.p[i])));
+    }
+    // the PVD lists every frame
+    std::ifstream pvd(out / "frames.pvd");
+    std::stringstream ss;
+    ss << pvd.rdbuf();
+    for (const auto& p : vtus) EXPECT_NE(ss.str().find(p.filename().string()), std::string::npos);
+  }
+}
+
+TEST(MpmIo, BadScenesGiveClearErrors) {
+  const std::string good = kGood;
+  EXPECT_EQ(load_error("ok", good), "");
+  const std::pair<std::string, std::string> cases[] = {
+      {replace(good, "h = 0.02", "h = 0.02\nspacing = 3"), "unknown key 'grid.spacing'"},
+      {replace(good, "max = [0.1, 0.1]", "max = [0.1, 0.5]"), "outside the grid"},
+      {replace(good, "dt = 1e-4", "dt = 1e-2"), "time.dt"},
+      {replace(good, "per_cell = 4", "per_cell = 3"), "particles.per_cell"},
+      {replace(good, "model = \"frictional\"", "model = \"viscous\""), "material.model"},
+      {replace(good, "side = \"y-\"", "side = \"x-\""), "contradicts"},
+      {replace(good, "duration = 0.002", "duration = 0.002\n[stage.gate]\npoint = [0.1, 0]\nnormal = [1, 1]"),
+       "stage[0].gate.hold"},
+      {replace(good, "min = [0.0, 0.0]", "min = [0.0]"), "body[0].min"},
+      {replace(good, "times = [0.001]", "times = [0.5]"), "output.times"},
+      {replace(good, "[particles]", "[particle]"), "particle"},
+  };
+  for (const auto& [text, expect] : cases) {
+    const std::string err = load_error("bad", text);
+    EXPECT_NE(err.find(expect), std::string::npos) << "expected '" << expect << "' in: " << err;
+  }
+}
