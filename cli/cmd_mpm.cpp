@@ -81,7 +81,9 @@ void run_mpm(const MpmOptions& o) {
     if (script.empty()) {
       std::fprintf(stderr, "PNG snapshots skipped: scripts/plot_mpm.py not found\n");
     } else {
-      const std::string cmd = "python3 '" + script + "' '" + out + "' --fields " + o.png_fields;
+      // the system interpreter has the distribution's matplotlib; a pyenv/venv one may not
+      const std::string py = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+      const std::string cmd = py + " '" + script + "' '" + out + "' --fields " + o.png_fields;
       if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "PNG snapshots skipped: '%s' failed\n", cmd.c_str());
     }
   }

@@ -2,6 +2,7 @@
 // reproduction of a uniform grid velocity in G2P, thread-count independence of the CPU twin.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <random>
 
 #ifdef _OPENMP
@@ -15,6 +16,14 @@ using namespace granflow;
 using namespace granflow::mpm;
 
 namespace {
+
+// Small scenes: one thread unless OMP_NUM_THREADS says otherwise (barrier waits dominate).
+const bool kOneThread = [] {
+#ifdef _OPENMP
+  if (!std::getenv("OMP_NUM_THREADS")) omp_set_num_threads(1);
+#endif
+  return true;
+}();
 
 template <class Shape>
 void check_partition_of_unity() {

@@ -29,6 +29,9 @@ enum Status : std::uint32_t {
   kConstitutive = 3,      // field "stress": Model::update reported non-finite / inadmissible
 };
 
+// Void ratio at which a dilating point counts as separated (just inside e < 2.97 of Eq. 13).
+inline constexpr double kSeparatedVoidRatio = 2.9;
+
 // Everything a step needs besides the arrays; passed by value to kernels.
 template <int D, class S, class Model>
 struct StepParams {
@@ -231,10 +234,22 @@ GF_HDI std::uint32_t g2p_particle(const ParticleView<S>& pv, const GridView<S>& 
   using IO = StateIO<Model>;
   typename Model::State st = IO::template load<D>(pv, p);
   Mat3<S> stress;
-  const UpdateInfo inf = Model::update(sp.mp, st, embed_gradient<D, S>(L), sp.dt, stress);
-  if (!inf.ok()) return kConstitutive | (inf.flags << 8);
-  IO::template store<D>(pv, p, st);
-  store_sym(pv, Lay::SIG, p, stress);
+  const Mat3<S> L3 = embed_gradient<D, S>(L);
+  const S e_trial = (S(1) + st.e) * std::exp(trace(L3) * sp.dt) - S(1);
+  const UpdateInfo inf = Model::update(sp.mp, st, L3, sp.dt, stress);
+  if (inf.ok()) {
+    IO::template store<D>(pv, p, st);
+    store_sym(pv, Lay::SIG, p, stress);
+  } else if ((inf.flags & info::kInadmissible) && e_trial >= S(kSeparatedVoidRatio)) {
+    // A point torn off the bulk (free surface, rear of a slide) dilates past the range of
+    // Eq. (13): the grains have separated. It carries no stress and keeps e at the cap until
+    // it is compressed again (MPM policy, not part of the constitutive model).
+    store_sym(pv, Lay::SIGF, p, Mat3<S>(Mat3<S>::Zero()));
+    store_sym(pv, Lay::SIG, p, Mat3<S>(Mat3<S>::Zero()));
+    pv.f(Lay::E, p) = S(kSeparatedVoidRatio);
+  } else {
+    return kConstitutive | (inf.flags << 8);
+  }
   if (sp.want_dt_limit) *dt_limit = particle_dt_limit<D, S, Model>(st, sp, std::sqrt(speed2));
 
   for (int d = 0; d < D; ++d) xi[d] = (pv.f(Lay::X + d, p) - sp.grid.origin[d]) * sp.grid.inv_h;
