@@ -1,6 +1,7 @@
 // granflow mpm <scene.toml>: run a scene (CPU twin or CUDA) and write VTU/PVD frames, CSV
 // series, the final free surface and PNG snapshots; granflow bench mpm: per-phase timings.
 #include <chrono>
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <cstdlib>
@@ -100,11 +101,16 @@ void bench_mpm(const BenchOptions& o) {
   auto r = make_runner(su, o.backend);
   const mpm::Scene& sc = su.scene;
   r->set_stage(0, sc.stages[0].damping, sc.stages[0].flip.value_or(sc.flip));
-  for (long i = 0; i < o.warmup; ++i) r->step(sc.dt, sc.adaptive);
+  double dt = sc.adaptive ? std::min(sc.dt, sc.cfl * su.dt_estimate) : sc.dt;
+  for (long i = 0; i < o.warmup; ++i) {
+    const mpm::StepResult s = r->step(dt, sc.adaptive);
+    if (sc.adaptive) dt = std::min(sc.dt, s.dt_limit);
+  }
   r->reset_times();
   const auto t0 = std::chrono::steady_clock::now();
   for (long i = 0; i < o.steps; ++i) {
-    const mpm::StepResult s = r->step(sc.dt, sc.adaptive);
+    const mpm::StepResult s = r->step(dt, sc.adaptive);
+    if (sc.adaptive) dt = std::min(sc.dt, s.dt_limit);
     if (!s.ok) throw std::runtime_error("benchmark step " + std::to_string(i) + " failed at particle " + std::to_string(s.particle));
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -204,7 +204,7 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
   auto last_print = wall0;
   double t = 0;
   long step = 0;
-  double dt = sc.dt;
+  double dt = sc.adaptive ? std::min(sc.dt, sc.cfl * su.dt_estimate) : sc.dt;
   double t_stage_end = 0;
   size_t next_out = 0;
   std::vector<double> out_times = sc.output.times;
@@ -264,7 +264,8 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
     }
     if (!sum.ok) break;
     if (sum.series.back().t != t) sample(t, si);
-    if (si == 0 && sc.stages.size() > 1) sum.consolidation = check_consolidation(fr, su);
+    if (si == 0 && sc.stages.size() > 1 && t >= t_stage_end * (1 - 1e-12))
+      sum.consolidation = check_consolidation(fr, su);
     if (si + 1 < static_cast<int>(sc.stages.size()) && sc.output.frames_in_stages) write_frame(fr, t, "_" + stage_name(sc, si));
   }
   if (opt.progress) std::fprintf(stderr, "\n");

@@ -174,6 +174,7 @@ SceneSetup make_setup(const Scene& sc) {
     const ElasticModuli<double> c = elastic_moduli(fp, p, mat.e0);
     const double wave = std::sqrt((c.K + 4.0 / 3.0 * c.G) / rho0);
     const double limit = sc.h / wave;
+    su.dt_estimate = limit;
     if (!sc.adaptive && sc.dt > limit)
       fail("time.dt", fmt(sc.dt) + " s is above the stability limit h / c_p = " + fmt(limit) +
                           " s (P-wave speed " + fmt(wave) + " m/s at the base of the consolidated material)");

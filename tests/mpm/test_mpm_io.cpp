@@ -206,3 +206,28 @@ TEST(MpmIo, BadScenesGiveClearErrors) {
     EXPECT_NE(err.find(expect), std::string::npos) << "expected '" << expect << "' in: " << err;
   }
 }
+
+TEST(MpmIo, ParticleLeavingTheGridStopsWithMessageAndLastGoodFrame) {
+  Scene sc = io::load_scene(write_tmp("leave", kGood));
+  sc.walls.clear();  // nothing holds the block: it falls out of the grid
+  sc.stages[0].duration = 0.5;
+  sc.output.times.clear();
+  sc.output.series_dt = 0.01;
+  const SceneSetup su = make_setup(sc);
+  auto r = make_cpu_runner(su);
+  const fs::path out = fs::temp_directory_path() / "granflow_mpm_leave";
+  fs::remove_all(out);
+  RunOptions opt;
+  opt.out_dir = out.string();
+  opt.progress = false;
+  const RunSummary s = run(su, *r, opt);
+  ASSERT_FALSE(s.ok);
+  EXPECT_NE(s.message.find("particle "), std::string::npos) << s.message;
+  EXPECT_NE(s.message.find("position (left the grid)"), std::string::npos) << s.message;
+  EXPECT_NE(s.message.find("at step "), std::string::npos) << s.message;
+  bool last_good = false;
+  for (const auto& e : fs::directory_iterator(out))
+    if (e.path().filename().string().find("_last_good.vtu") != std::string::npos) last_good = true;
+  EXPECT_TRUE(last_good);
+  EXPECT_TRUE(fs::exists(out / "runout.csv"));
+}

@@ -33,6 +33,7 @@ struct SceneSetup {
   std::vector<std::vector<std::uint8_t>> stage_masks;  // one node mask per stage
   bool has_boundary = false;
   std::vector<long> tracked;    // particle index per scene.tracks entry
+  double dt_estimate = 0;       // h / c_p of the at-rest material (first adaptive step: cfl times this)
 };
 
 // Seeds particles, sets the initial stress, builds the node masks and checks the scene
