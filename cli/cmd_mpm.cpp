@@ -74,6 +74,13 @@ void run_mpm(const MpmOptions& o) {
     std::printf("after stage 1: base sigma_v %.1f Pa vs rho g h %.1f Pa; max |sigma_v/(rho g z) - 1| = %.3f "
                 "(middle half of the body, below the top cell)\n",
                 s.consolidation.base_sigma_v, s.consolidation.base_rho_g_h, s.consolidation.max_rel_error);
+  if (s.stats.updates > 0) {
+    const double u = double(s.stats.updates);
+    std::printf("constitutive updates: %.3g, mean substeps %.2f; substep limit %.3g%%, tension cut-off %.3g%%, "
+                "V_s clamped %.3g%%, separated %.3g%%\n",
+                u, s.stats.substeps / u, 100 * s.stats.substep_limit / u, 100 * s.stats.tension_cutoff / u,
+                100 * s.stats.vs_clamped / u, 100 * s.stats.separated / u);
+  }
   std::printf("final run-out: %.4f m\nfinal height: %.4f m\nmax speed: %.4g m/s\n", s.final.runout, s.final.height,
               s.final.max_speed);
   std::printf("output: %s (frames.pvd, runout.csv, tracked.csv, profile_final.csv)\n", out.c_str());

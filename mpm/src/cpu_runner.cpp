@@ -36,6 +36,7 @@ class CpuRunner final : public Runner {
     key_.resize(n_);
     dtlim_.resize(n_);
     status_.resize(n_);
+    info_.resize(n_);
     set_stage(0, 0.0, su.scene.flip);
   }
 
@@ -62,13 +63,31 @@ class CpuRunner final : public Runner {
     std::uint32_t any = 0;
     S* lim = dtlim_.data();
     std::uint32_t* st = status_.data();
+    std::uint32_t* inf = info_.data();
 #pragma omp parallel for schedule(dynamic, 256) reduction(| : any)
     for (long p = 0; p < n_; ++p) {
-      st[p] = g2p_particle<D, S, Model, Shape>(pv, gv, p, sp_, &lim[p]);
+      inf[p] = 0;
+      st[p] = g2p_particle<D, S, Model, Shape>(pv, gv, p, sp_, &lim[p], &inf[p]);
       any |= st[p];
     }
     times_.g2p += seconds_since(t0);
     ++times_.steps;
+    long sub = 0, lim_hits = 0, cut = 0, clamp = 0, sep = 0;
+#pragma omp parallel for reduction(+ : sub, lim_hits, cut, clamp, sep)
+    for (long p = 0; p < n_; ++p) {
+      const std::uint32_t f = inf[p];
+      sub += f >> 16;
+      lim_hits += (f & info::kSubstepLimit) != 0;
+      cut += (f & info::kTensionCutoff) != 0;
+      clamp += (f & info::kVsClamped) != 0;
+      sep += (f & kSeparatedFlag) != 0;
+    }
+    stats_.updates += n_;
+    stats_.substeps += sub;
+    stats_.substep_limit += lim_hits;
+    stats_.tension_cutoff += cut;
+    stats_.vs_clamped += clamp;
+    stats_.separated += sep;
     StepResult r;
     if (any) {
       for (long p = 0; p < n_; ++p)
@@ -93,6 +112,7 @@ class CpuRunner final : public Runner {
   }
   void download(HostParticles& out) override { detail::unpack<D, S, Model::kCollisional>(part_, n_, out); }
   PhaseTimes times() const override { return times_; }
+  UpdateStats update_stats() const override { return stats_; }
   void reset_times() override { times_ = PhaseTimes{}; }
   std::string device() const override {
     int threads = 1;
@@ -166,7 +186,8 @@ class CpuRunner final : public Runner {
   int stage_ = 0;
   std::vector<S> part_, grid_, dtlim_;
   std::vector<long> bin_start_, order_, key_, fill_;
-  std::vector<std::uint32_t> status_;
+  std::vector<std::uint32_t> status_, info_;
+  UpdateStats stats_;
   PhaseTimes times_;
 };
 

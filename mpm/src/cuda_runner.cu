@@ -57,10 +57,10 @@ __global__ void grid_kernel(GridView<S> gv, StepParams<D, S, Model> sp) {
 
 template <int D, class S, class Model, class Shape>
 __global__ void g2p_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp, S* dt_limit,
-                           unsigned long long* first_bad, std::uint32_t* status) {
+                           unsigned long long* first_bad, std::uint32_t* status, std::uint32_t* upd_info) {
   const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
   if (p >= pv.n) return;
-  const std::uint32_t st = g2p_particle<D, S, Model, Shape>(pv, gv, p, sp, &dt_limit[p]);
+  const std::uint32_t st = g2p_particle<D, S, Model, Shape>(pv, gv, p, sp, &dt_limit[p], &upd_info[p]);
   status[p] = st;
   if (st) atomicMin(first_bad, static_cast<unsigned long long>(p));
 }
@@ -86,6 +86,7 @@ class CudaRunner final : public Runner {
     grid_ = device_alloc<S>(static_cast<size_t>(G::N) * sp_.grid.n_nodes);
     dtlim_ = device_alloc<S>(n_);
     status_ = device_alloc<std::uint32_t>(n_);
+    info_ = device_alloc<std::uint32_t>(n_);
     bad_ = device_alloc<unsigned long long>(1);
     for (const auto& m : su.stage_masks) {
       std::uint8_t* d = nullptr;
@@ -99,7 +100,7 @@ class CudaRunner final : public Runner {
     set_stage(0, 0.0, su.scene.flip);
   }
   ~CudaRunner() override {
-    cudaFree(part_); cudaFree(grid_); cudaFree(dtlim_); cudaFree(status_); cudaFree(bad_);
+    cudaFree(part_); cudaFree(grid_); cudaFree(dtlim_); cudaFree(status_); cudaFree(info_); cudaFree(bad_);
     for (auto* m : masks_) cudaFree(m);
     for (auto& e : ev_) cudaEventDestroy(e);
   }
@@ -126,7 +127,7 @@ class CudaRunner final : public Runner {
     cudaEventRecord(ev_[1]);
     grid_kernel<D, S, Model, kBoundary><<<gb, kBlock>>>(gv, sp_);
     cudaEventRecord(ev_[2]);
-    g2p_kernel<D, S, Model, Shape><<<pb, kBlock>>>(pv, gv, sp_, dtlim_, bad_, status_);
+    g2p_kernel<D, S, Model, Shape><<<pb, kBlock>>>(pv, gv, sp_, dtlim_, bad_, status_, info_);
     cudaEventRecord(ev_[3]);
     check(cudaGetLastError(), "kernel launch");
     StepResult r;
@@ -184,6 +185,7 @@ class CudaRunner final : public Runner {
   S* grid_ = nullptr;
   S* dtlim_ = nullptr;
   std::uint32_t* status_ = nullptr;
+  std::uint32_t* info_ = nullptr;  // per-particle update record (not reduced on the GPU yet)
   unsigned long long* bad_ = nullptr;
   std::vector<std::uint8_t*> masks_;
   cudaEvent_t ev_[4];

@@ -274,6 +274,7 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
   sum.t_end = t;
   sum.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
   sum.times = runner.times();
+  sum.stats = runner.update_stats();
 
   if (files) {
     std::ostringstream a;

@@ -51,6 +51,7 @@ struct RunSummary {
   std::vector<TrackRow> tracks;
   ConsolidationCheck consolidation;
   PhaseTimes times;
+  UpdateStats stats;
   std::string device;
 };
 

@@ -31,6 +31,8 @@ enum Status : std::uint32_t {
 
 // Void ratio at which a dilating point counts as separated (just inside e < 2.97 of Eq. 13).
 inline constexpr double kSeparatedVoidRatio = 2.9;
+// Bit of the per-particle update record marking a separated point (library flags use bits 0-5).
+inline constexpr std::uint32_t kSeparatedFlag = 1u << 7;
 
 // Everything a step needs besides the arrays; passed by value to kernels.
 template <int D, class S, class Model>
@@ -179,7 +181,8 @@ GF_HDI S particle_dt_limit(const typename Model::State& st, const StepParams<D, 
 
 template <int D, class S, class Model, class Shape>
 GF_HDI std::uint32_t g2p_particle(const ParticleView<S>& pv, const GridView<S>& gv, long p,
-                                  const StepParams<D, S, Model>& sp, S* dt_limit) {
+                                  const StepParams<D, S, Model>& sp, S* dt_limit,
+                                  std::uint32_t* upd_info) {
   using Lay = ParticleLayout<D, Model::kCollisional>;
   using G = GridLayout<D>;
   S xi[D];
@@ -237,6 +240,8 @@ GF_HDI std::uint32_t g2p_particle(const ParticleView<S>& pv, const GridView<S>& 
   const Mat3<S> L3 = embed_gradient<D, S>(L);
   const S e_trial = (S(1) + st.e) * std::exp(trace(L3) * sp.dt) - S(1);
   const UpdateInfo inf = Model::update(sp.mp, st, L3, sp.dt, stress);
+  const std::uint32_t nsub = inf.substeps < 65535 ? static_cast<std::uint32_t>(inf.substeps) : 65535u;
+  *upd_info = (inf.flags & 0xffu) | (nsub << 16);
   if (inf.ok()) {
     IO::template store<D>(pv, p, st);
     store_sym(pv, Lay::SIG, p, stress);
@@ -247,6 +252,7 @@ GF_HDI std::uint32_t g2p_particle(const ParticleView<S>& pv, const GridView<S>& 
     store_sym(pv, Lay::SIGF, p, Mat3<S>(Mat3<S>::Zero()));
     store_sym(pv, Lay::SIG, p, Mat3<S>(Mat3<S>::Zero()));
     pv.f(Lay::E, p) = S(kSeparatedVoidRatio);
+    *upd_info |= kSeparatedFlag;
   } else {
     return kConstitutive | (inf.flags << 8);
   }

@@ -52,6 +52,15 @@ struct PhaseTimes {
   long steps = 0;
 };
 
+// What the constitutive updates reported, summed over particles and steps.
+struct UpdateStats {
+  long updates = 0, substeps = 0;
+  long substep_limit = 0;   // substep budget exhausted (less accurate update)
+  long tension_cutoff = 0;  // sigma_f set to zero
+  long vs_clamped = 0;      // V_s clamped below V_sd in the kinetic functions
+  long separated = 0;       // points treated as separated (e at the cap)
+};
+
 // Per-particle output fields (diagnostics evaluated with Model::diagnostics on the host).
 struct Frame {
   long n = 0;
@@ -71,6 +80,8 @@ class Runner {
   virtual void download(HostParticles& out) = 0;
   virtual PhaseTimes times() const = 0;
   virtual void reset_times() = 0;
+  // CPU twin only (the CUDA backend records them per particle but does not sum them yet).
+  virtual UpdateStats update_stats() const { return {}; }
   virtual std::string device() const = 0;
   virtual long particles() const = 0;
   virtual long nodes() const = 0;
