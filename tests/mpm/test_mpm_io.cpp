@@ -231,3 +231,94 @@ TEST(MpmIo, ParticleLeavingTheGridStopsWithMessageAndLastGoodFrame) {
   EXPECT_TRUE(last_good);
   EXPECT_TRUE(fs::exists(out / "runout.csv"));
 }
+
+namespace {
+
+void expect_same_scene(const Scene& a, const Scene& b) {
+  const double tol = 2e-5;  // the TOML files print the flume geometry with 5 decimals
+  EXPECT_EQ(a.dim, b.dim);
+  for (int d = 0; d < a.dim; ++d) {
+    EXPECT_NEAR(a.origin[d], b.origin[d], tol);
+    EXPECT_NEAR(a.size[d], b.size[d], tol);
+  }
+  EXPECT_DOUBLE_EQ(a.h, b.h);
+  EXPECT_EQ(a.ppc_axis, b.ppc_axis);
+  EXPECT_EQ(a.shape, b.shape);
+  EXPECT_DOUBLE_EQ(a.dt, b.dt);
+  EXPECT_DOUBLE_EQ(a.flip, b.flip);
+  EXPECT_EQ(a.material.model, b.material.model);
+  EXPECT_DOUBLE_EQ(a.material.e0, b.material.e0);
+  EXPECT_DOUBLE_EQ(a.material.T0, b.material.T0);
+  const auto& fa = a.material.params.f;
+  const auto& fb = b.material.params.f;
+  for (auto m : {&FrictionalParams<double>::K0, &FrictionalParams<double>::nu, &FrictionalParams<double>::n,
+                 &FrictionalParams<double>::phi_c, &FrictionalParams<double>::e_ref, &FrictionalParams<double>::lambda_c,
+                 &FrictionalParams<double>::xi, &FrictionalParams<double>::A_d, &FrictionalParams<double>::k_p,
+                 &FrictionalParams<double>::n_p, &FrictionalParams<double>::n_d, &FrictionalParams<double>::p_at})
+    EXPECT_NEAR(fa.*m, fb.*m, 1e-12 * std::fabs(fa.*m));
+  const auto& ca = a.material.params.c;
+  const auto& cb = b.material.params.c;
+  for (auto m : {&CollisionalParams<double>::rho_p, &CollisionalParams<double>::d, &CollisionalParams<double>::V_sd,
+                 &CollisionalParams<double>::V_m, &CollisionalParams<double>::eps_n, &CollisionalParams<double>::mu_p})
+    EXPECT_NEAR(ca.*m, cb.*m, 1e-12 * std::fabs(ca.*m));
+  ASSERT_EQ(a.bodies.size(), b.bodies.size());
+  for (size_t i = 0; i < a.bodies.size(); ++i) {
+    ASSERT_EQ(a.bodies[i].poly_x.size(), b.bodies[i].poly_x.size());
+    for (size_t k = 0; k < a.bodies[i].poly_x.size(); ++k) {
+      EXPECT_NEAR(a.bodies[i].poly_x[k], b.bodies[i].poly_x[k], tol);
+      EXPECT_NEAR(a.bodies[i].poly_y[k], b.bodies[i].poly_y[k], tol);
+    }
+    EXPECT_EQ(a.bodies[i].box_min, b.bodies[i].box_min);
+    EXPECT_EQ(a.bodies[i].box_max, b.bodies[i].box_max);
+  }
+  ASSERT_EQ(a.walls.size(), b.walls.size());
+  for (size_t i = 0; i < a.walls.size(); ++i) {
+    EXPECT_EQ(a.walls[i].axis, b.walls[i].axis);
+    EXPECT_EQ(a.walls[i].at_max, b.walls[i].at_max);
+    EXPECT_NEAR(a.walls[i].position, b.walls[i].position, tol);
+    EXPECT_EQ(a.walls[i].no_slip, b.walls[i].no_slip);
+  }
+  ASSERT_EQ(a.base.has_value(), b.base.has_value());
+  if (a.base)
+    for (size_t k = 0; k < a.base->x.size(); ++k) {
+      EXPECT_NEAR(a.base->x[k], b.base->x[k], tol);
+      EXPECT_NEAR(a.base->y[k], b.base->y[k], tol);
+    }
+  ASSERT_EQ(a.stages.size(), b.stages.size());
+  for (size_t i = 0; i < a.stages.size(); ++i) {
+    EXPECT_DOUBLE_EQ(a.stages[i].duration, b.stages[i].duration);
+    EXPECT_DOUBLE_EQ(a.stages[i].damping, b.stages[i].damping);
+    ASSERT_EQ(a.stages[i].gate.has_value(), b.stages[i].gate.has_value());
+    if (a.stages[i].gate) {
+      EXPECT_NEAR(a.stages[i].gate->point[0], b.stages[i].gate->point[0], tol);
+      EXPECT_EQ(a.stages[i].gate->normal, b.stages[i].gate->normal);
+      EXPECT_EQ(a.stages[i].gate->normal_only, b.stages[i].gate->normal_only);
+    }
+  }
+  ASSERT_EQ(a.runout_x.size(), b.runout_x.size());
+  for (size_t k = 0; k < a.runout_x.size(); ++k) {
+    EXPECT_NEAR(a.runout_x[k], b.runout_x[k], tol);
+    EXPECT_NEAR(a.runout_y[k], b.runout_y[k], tol);
+  }
+  ASSERT_EQ(a.tracks.size(), b.tracks.size());
+  for (size_t k = 0; k < a.tracks.size(); ++k)
+    for (int d = 0; d < a.dim; ++d) EXPECT_NEAR(a.tracks[k].x[d], b.tracks[k].x[d], tol);
+  EXPECT_EQ(a.output.times, b.output.times);
+}
+
+}  // namespace
+
+// The in-code scenes (used where there is no TOML reader, e.g. the GPU machine) describe the
+// same set-ups as the shipped scene files.
+TEST(MpmIo, SceneFilesMatchInCodeScenes) {
+  const std::string dir = std::string(GRANFLOW_SOURCE_DIR) + "/mpm/scenes/";
+  using MK = ModelKind;
+  using SK = ShapeKind;
+  expect_same_scene(io::load_scene(dir + "column_collapse.toml"), column_scene(0.001, 1e-5, MK::PhaseTransition, SK::Linear, 1.0));
+  expect_same_scene(io::load_scene(dir + "column_collapse_frictional.toml"), column_scene(0.001, 1e-5, MK::Frictional, SK::Linear, 1.0));
+  Scene ci = small_column_scene(MK::PhaseTransition);
+  ci.output.times = {0.05, 0.25, 0.4};
+  expect_same_scene(io::load_scene(dir + "column_collapse_ci.toml"), ci);
+  expect_same_scene(io::load_scene(dir + "flume.toml"), flume_scene(0.005, 1e-6, MK::PhaseTransition, SK::Linear, 3.0));
+  expect_same_scene(io::load_scene(dir + "flume_frictional.toml"), flume_scene(0.005, 1e-6, MK::Frictional, SK::Linear, 3.0));
+}

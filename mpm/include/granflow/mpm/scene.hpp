@@ -118,8 +118,13 @@ struct Scene {
   }
 };
 
-// The CI column collapse built in code (10 mm grid, 4 ppc, 0.4 s of collapse), for programs
-// that have no TOML reader (the CUDA check on the GPU machine) and for tests.
+// The paper's scenes built in code, for programs without a TOML reader (the GPU machine) and
+// for tests; mpm/scenes/*.toml describe the same set-ups (a test checks they agree).
+// Column: 0.1 s damped consolidation with the gate, then `collapse_time` of collapse.
+Scene column_scene(double h, double dt, ModelKind model, ShapeKind shape, double collapse_time);
+// Flume: 0.1 s damped consolidation behind the gate, then `flow_time` of flow.
+Scene flume_scene(double h, double dt, ModelKind model, ShapeKind shape, double flow_time);
+// The CI column collapse: 10 mm grid, 4 points per cell, dt 5e-5 s, 0.4 s of collapse.
 Scene small_column_scene(ModelKind model, ShapeKind shape = ShapeKind::Linear);
 
 }  // namespace granflow::mpm
