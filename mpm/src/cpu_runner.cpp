@@ -31,6 +31,7 @@ class CpuRunner final : public Runner {
       : masks_(su.stage_masks), sp_(detail::step_params<D, S, Model>(su)), n_(su.particles.n) {
     part_ = detail::pack<D, S, Model::kCollisional>(su.particles);
     grid_.assign(static_cast<size_t>(G::N) * sp_.grid.n_nodes, S(0));
+    if (sp_.vol_avg) trbar_.assign(sp_.grid.n_nodes, S(0));
     bin_start_.assign(sp_.grid.n_nodes + 1, 0);
     order_.resize(n_);
     key_.resize(n_);
@@ -64,11 +65,41 @@ class CpuRunner final : public Runner {
     S* lim = dtlim_.data();
     std::uint32_t* st = status_.data();
     std::uint32_t* inf = info_.data();
+    if (!sp_.vol_avg) {
 #pragma omp parallel for schedule(dynamic, 256) reduction(| : any)
-    for (long p = 0; p < n_; ++p) {
-      inf[p] = 0;
-      st[p] = g2p_particle<D, S, Model, Shape>(pv, gv, p, sp_, &lim[p], &inf[p]);
-      any |= st[p];
+      for (long p = 0; p < n_; ++p) {
+        inf[p] = 0;
+        st[p] = g2p_particle<D, S, Model, Shape>(pv, gv, p, sp_, &lim[p], &inf[p]);
+        any |= st[p];
+      }
+    } else {
+#pragma omp parallel for schedule(static) reduction(| : any)
+      for (long p = 0; p < n_; ++p) {
+        inf[p] = 0;
+        st[p] = g2p_kinematics<D, S, Model, Shape>(pv, gv, p, sp_);
+        any |= st[p];
+      }
+      if (!any) {
+        // volume-weighted mean of tr L per bin (the particles binned in P2G, in order)
+        const long nn = sp_.grid.n_nodes;
+        S* tb = trbar_.data();
+#pragma omp parallel for schedule(static)
+        for (long b = 0; b < nn; ++b) {
+          S sv = S(0), st_ = S(0);
+          for (long j = bin_start_[b]; j < bin_start_[b + 1]; ++j) {
+            S V, tr;
+            volumetric_rate<D, S, Model>(pv, order_[j], sp_, V, tr);
+            sv += V;
+            st_ += V * tr;
+          }
+          tb[b] = sv > S(0) ? st_ / sv : S(0);
+        }
+#pragma omp parallel for schedule(dynamic, 256) reduction(| : any)
+        for (long p = 0; p < n_; ++p) {
+          st[p] = constitutive_particle<D, S, Model>(pv, p, sp_, tb[key_[p]], &lim[p], &inf[p]);
+          any |= st[p];
+        }
+      }
     }
     times_.g2p += seconds_since(t0);
     ++times_.steps;
@@ -184,7 +215,7 @@ class CpuRunner final : public Runner {
   StepParams<D, S, Model> sp_;
   long n_;
   int stage_ = 0;
-  std::vector<S> part_, grid_, dtlim_;
+  std::vector<S> part_, grid_, dtlim_, trbar_;
   std::vector<long> bin_start_, order_, key_, fill_;
   std::vector<std::uint32_t> status_, info_;
   UpdateStats stats_;

@@ -21,13 +21,14 @@ void check(cudaError_t e, const char* what) {
 }
 
 template <int D, class S, class Model, class Shape>
-__global__ void p2g_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp) {
+__global__ void p2g_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp, long* keys) {
   using G = GridLayout<D>;
   const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
   if (p >= pv.n) return;
   const P2GParticle<D, S> q = p2g_load<D, S, Model>(pv, p, sp);
   int base[D];
   stencil_base<D, S, Shape>(q.xi, sp.grid, base);
+  keys[p] = sp.grid.linear(base);  // bin of the particle (volumetric averaging)
   constexpr int K = Shape::K;
   int n_st = 1;
   for (int d = 0; d < D; ++d) n_st *= K;
@@ -65,6 +66,38 @@ __global__ void g2p_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, 
   if (st) atomicMin(first_bad, static_cast<unsigned long long>(p));
 }
 
+// Split G2P for volumetric averaging: kinematics and bin sums, then the constitutive update.
+template <int D, class S, class Model, class Shape>
+__global__ void g2p_kinematics_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp,
+                                      const long* keys, S* bin_v, S* bin_vtr, unsigned long long* first_bad,
+                                      std::uint32_t* status) {
+  const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  if (p >= pv.n) return;
+  const std::uint32_t st = g2p_kinematics<D, S, Model, Shape>(pv, gv, p, sp);
+  status[p] = st;
+  if (st) {
+    atomicMin(first_bad, static_cast<unsigned long long>(p));
+    return;
+  }
+  S V, tr;
+  volumetric_rate<D, S, Model>(pv, p, sp, V, tr);
+  atomicAdd(&bin_v[keys[p]], V);
+  atomicAdd(&bin_vtr[keys[p]], V * tr);
+}
+
+template <int D, class S, class Model>
+__global__ void constitutive_kernel(ParticleView<S> pv, StepParams<D, S, Model> sp, const long* keys,
+                                    const S* bin_v, const S* bin_vtr, S* dt_limit, unsigned long long* first_bad,
+                                    std::uint32_t* status, std::uint32_t* upd_info) {
+  const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  if (p >= pv.n || status[p]) return;  // kinematics already failed here
+  const long b = keys[p];
+  const S tr_bar = bin_v[b] > S(0) ? bin_vtr[b] / bin_v[b] : S(0);
+  const std::uint32_t st = constitutive_particle<D, S, Model>(pv, p, sp, tr_bar, &dt_limit[p], &upd_info[p]);
+  status[p] = st;
+  if (st) atomicMin(first_bad, static_cast<unsigned long long>(p));
+}
+
 template <class T>
 T* device_alloc(size_t n) {
   T* p = nullptr;
@@ -87,6 +120,8 @@ class CudaRunner final : public Runner {
     dtlim_ = device_alloc<S>(n_);
     status_ = device_alloc<std::uint32_t>(n_);
     info_ = device_alloc<std::uint32_t>(n_);
+    keys_ = device_alloc<long>(n_);
+    bins_ = device_alloc<S>(2 * static_cast<size_t>(sp_.grid.n_nodes));
     bad_ = device_alloc<unsigned long long>(1);
     for (const auto& m : su.stage_masks) {
       std::uint8_t* d = nullptr;
@@ -100,7 +135,7 @@ class CudaRunner final : public Runner {
     set_stage(0, 0.0, su.scene.flip);
   }
   ~CudaRunner() override {
-    cudaFree(part_); cudaFree(grid_); cudaFree(dtlim_); cudaFree(status_); cudaFree(info_); cudaFree(bad_);
+    cudaFree(part_); cudaFree(grid_); cudaFree(dtlim_); cudaFree(status_); cudaFree(info_); cudaFree(keys_); cudaFree(bins_); cudaFree(bad_);
     for (auto* m : masks_) cudaFree(m);
     for (auto& e : ev_) cudaEventDestroy(e);
   }
@@ -123,11 +158,17 @@ class CudaRunner final : public Runner {
     check(cudaMemcpyAsync(bad_, &none, sizeof none, cudaMemcpyHostToDevice), "reset status");
     cudaEventRecord(ev_[0]);
     check(cudaMemsetAsync(grid_, 0, sizeof(S) * (1 + 2 * D) * nn), "clear grid");
-    p2g_kernel<D, S, Model, Shape><<<pb, kBlock>>>(pv, gv, sp_);
+    p2g_kernel<D, S, Model, Shape><<<pb, kBlock>>>(pv, gv, sp_, keys_);
     cudaEventRecord(ev_[1]);
     grid_kernel<D, S, Model, kBoundary><<<gb, kBlock>>>(gv, sp_);
     cudaEventRecord(ev_[2]);
-    g2p_kernel<D, S, Model, Shape><<<pb, kBlock>>>(pv, gv, sp_, dtlim_, bad_, status_, info_);
+    if (!sp_.vol_avg) {
+      g2p_kernel<D, S, Model, Shape><<<pb, kBlock>>>(pv, gv, sp_, dtlim_, bad_, status_, info_);
+    } else {
+      check(cudaMemsetAsync(bins_, 0, sizeof(S) * 2 * nn), "clear bins");
+      g2p_kinematics_kernel<D, S, Model, Shape><<<pb, kBlock>>>(pv, gv, sp_, keys_, bins_, bins_ + nn, bad_, status_);
+      constitutive_kernel<D, S, Model><<<pb, kBlock>>>(pv, sp_, keys_, bins_, bins_ + nn, dtlim_, bad_, status_, info_);
+    }
     cudaEventRecord(ev_[3]);
     check(cudaGetLastError(), "kernel launch");
     StepResult r;
@@ -185,6 +226,8 @@ class CudaRunner final : public Runner {
   S* grid_ = nullptr;
   S* dtlim_ = nullptr;
   std::uint32_t* status_ = nullptr;
+  long* keys_ = nullptr;
+  S* bins_ = nullptr;  // per-bin V and V tr L (volumetric averaging)
   std::uint32_t* info_ = nullptr;  // per-particle update record (not reduced on the GPU yet)
   unsigned long long* bad_ = nullptr;
   std::vector<std::uint8_t*> masks_;

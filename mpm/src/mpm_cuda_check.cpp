@@ -15,9 +15,22 @@ int main(int argc, char** argv) {
   }
   const double tol = 0.005;
   int fails = 0;
-  for (ModelKind model : {ModelKind::PhaseTransition, ModelKind::Frictional}) {
-    for (ShapeKind shape : {ShapeKind::Linear, ShapeKind::QuadraticBSpline}) {
+  struct Case {
+    ModelKind model;
+    ShapeKind shape;
+    bool vol_avg;
+  };
+  const Case cases[] = {{ModelKind::PhaseTransition, ShapeKind::Linear, false},
+                        {ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, false},
+                        {ModelKind::Frictional, ShapeKind::Linear, false},
+                        {ModelKind::Frictional, ShapeKind::QuadraticBSpline, false},
+                        {ModelKind::PhaseTransition, ShapeKind::Linear, true}};
+  for (const Case& c : cases) {
+    {
+      const ModelKind model = c.model;
+      const ShapeKind shape = c.shape;
       Scene sc = small_column_scene(model, shape);
+      sc.volumetric_averaging = c.vol_avg;
       if (argc > 1 && std::strcmp(argv[1], "--short") == 0) sc.stages.back().duration = 0.1;
       const SceneSetup su = make_setup(sc);
       RunOptions opt;
@@ -29,9 +42,10 @@ int main(int argc, char** argv) {
       const double rel = std::fabs(b.final.runout - a.final.runout) / a.final.runout;
       const double relh = std::fabs(b.final.height - a.final.height) / a.final.height;
       const bool ok = a.ok && b.ok && rel <= tol && relh <= tol;
-      std::printf("%-60s %-9s cpu run-out %.5f m height %.5f m (%.2f s) | gpu run-out %.5f m height %.5f m "
+      std::printf("%-55s %-9s %s cpu run-out %.5f m height %.5f m (%.2f s) | gpu run-out %.5f m height %.5f m "
                   "(%.2f s, %s) | rel. diff %.2e / %.2e %s\n",
-                  sc.name.c_str(), shape == ShapeKind::Linear ? "linear" : "quadratic", a.final.runout,
+                  sc.name.c_str(), shape == ShapeKind::Linear ? "linear" : "quadratic", c.vol_avg ? "vol-avg" : "",
+                  a.final.runout,
                   a.final.height, a.wall_s, b.final.runout, b.final.height, b.wall_s, b.device.c_str(), rel, relh,
                   ok ? "OK" : "FAIL");
       if (!a.ok) std::printf("  cpu: %s\n", a.message.c_str());

@@ -48,6 +48,7 @@ StepParams<D, S, Model> step_params(const SceneSetup& su) {
   sp.mass_eps = S(1e-8 * mmin);
   sp.cfl = S(su.scene.cfl);
   sp.want_dt_limit = 0;
+  sp.vol_avg = su.scene.volumetric_averaging ? 1 : 0;
   return sp;
 }
 

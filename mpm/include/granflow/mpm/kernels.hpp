@@ -47,6 +47,7 @@ struct StepParams {
   S mass_eps;         // nodes lighter than this are treated as empty
   S cfl;              // safety factor of the time-step limit
   int want_dt_limit;  // compute the per-particle stable time step in G2P
+  int vol_avg;        // replace tr L by its volume-weighted mean over the particle's bin
 };
 
 // ---- 1. P2G ------------------------------------------------------------------------------
@@ -179,10 +180,10 @@ GF_HDI S particle_dt_limit(const typename Model::State& st, const StepParams<D, 
   return lim;
 }
 
+// 3a. Velocity, position and velocity gradient of one particle (L stored in the particle).
 template <int D, class S, class Model, class Shape>
-GF_HDI std::uint32_t g2p_particle(const ParticleView<S>& pv, const GridView<S>& gv, long p,
-                                  const StepParams<D, S, Model>& sp, S* dt_limit,
-                                  std::uint32_t* upd_info) {
+GF_HDI std::uint32_t g2p_kinematics(const ParticleView<S>& pv, const GridView<S>& gv, long p,
+                                    const StepParams<D, S, Model>& sp) {
   using Lay = ParticleLayout<D, Model::kCollisional>;
   using G = GridLayout<D>;
   S xi[D];
@@ -223,17 +224,43 @@ GF_HDI std::uint32_t g2p_particle(const ParticleView<S>& pv, const GridView<S>& 
       for (int b = 0; b < D; ++b) L[a][b] += vn * gradN[b];
     }
   }
-  S speed2 = S(0);
   for (int d = 0; d < D; ++d) {
     const S v = sp.flip * (pv.f(Lay::V + d, p) + dv[d]) + (S(1) - sp.flip) * vpic[d];
     if (!std::isfinite(v)) return kNonFiniteVelocity;
     pv.f(Lay::V + d, p) = v;
     pv.f(Lay::X + d, p) += sp.dt * vpic[d];
-    speed2 += v * v;
   }
   for (int a = 0; a < D; ++a)
     for (int b = 0; b < D; ++b) pv.f(Lay::L + a * D + b, p) = L[a][b];
+  for (int d = 0; d < D; ++d) xi[d] = (pv.f(Lay::X + d, p) - sp.grid.origin[d]) * sp.grid.inv_h;
+  if (!stencil_base<D, S, Shape>(xi, sp.grid, base)) return kLeftGrid;
+  return kOk;
+}
 
+// Volume and in-plane volumetric rate of a particle after 3a (for cell averaging).
+template <int D, class S, class Model>
+GF_HDI void volumetric_rate(const ParticleView<S>& pv, long p, const StepParams<D, S, Model>& sp, S& V, S& trL) {
+  using Lay = ParticleLayout<D, Model::kCollisional>;
+  V = pv.f(Lay::M, p) * (S(1) + pv.f(Lay::E, p)) / sp.rho_p;
+  trL = S(0);
+  for (int d = 0; d < D; ++d) trL += pv.f(Lay::L + d * D + d, p);
+}
+
+// 3b. Constitutive update of one particle from the stored L. With tr_bar finite, the
+// volumetric part of L is replaced by tr_bar (the volume-weighted mean over the particle's
+// bin: the "cell-averaged volumetric strain rate" that damps pressure checkerboarding).
+template <int D, class S, class Model>
+GF_HDI std::uint32_t constitutive_particle(const ParticleView<S>& pv, long p, const StepParams<D, S, Model>& sp,
+                                           S tr_bar, S* dt_limit, std::uint32_t* upd_info) {
+  using Lay = ParticleLayout<D, Model::kCollisional>;
+  S L[D][D];
+  for (int a = 0; a < D; ++a)
+    for (int b = 0; b < D; ++b) L[a][b] = pv.f(Lay::L + a * D + b, p);
+  if (std::isfinite(tr_bar)) {
+    S tr = S(0);
+    for (int d = 0; d < D; ++d) tr += L[d][d];
+    for (int d = 0; d < D; ++d) L[d][d] += (tr_bar - tr) / S(D);
+  }
   using IO = StateIO<Model>;
   typename Model::State st = IO::template load<D>(pv, p);
   Mat3<S> stress;
@@ -256,11 +283,21 @@ GF_HDI std::uint32_t g2p_particle(const ParticleView<S>& pv, const GridView<S>& 
   } else {
     return kConstitutive | (inf.flags << 8);
   }
-  if (sp.want_dt_limit) *dt_limit = particle_dt_limit<D, S, Model>(st, sp, std::sqrt(speed2));
-
-  for (int d = 0; d < D; ++d) xi[d] = (pv.f(Lay::X + d, p) - sp.grid.origin[d]) * sp.grid.inv_h;
-  if (!stencil_base<D, S, Shape>(xi, sp.grid, base)) return kLeftGrid;
+  if (sp.want_dt_limit) {
+    S speed2 = S(0);
+    for (int d = 0; d < D; ++d) speed2 += pv.f(Lay::V + d, p) * pv.f(Lay::V + d, p);
+    *dt_limit = particle_dt_limit<D, S, Model>(st, sp, std::sqrt(speed2));
+  }
   return kOk;
+}
+
+// 3. G2P and constitutive update fused (no volumetric averaging).
+template <int D, class S, class Model, class Shape>
+GF_HDI std::uint32_t g2p_particle(const ParticleView<S>& pv, const GridView<S>& gv, long p,
+                                  const StepParams<D, S, Model>& sp, S* dt_limit, std::uint32_t* upd_info) {
+  const std::uint32_t s = g2p_kinematics<D, S, Model, Shape>(pv, gv, p, sp);
+  if (s != kOk) return s;
+  return constitutive_particle<D, S, Model>(pv, p, sp, S(NAN), dt_limit, upd_info);
 }
 
 inline const char* status_field(std::uint32_t s) {

@@ -92,6 +92,7 @@ struct Scene {
   int ppc_axis = 2;                  // particles per cell along each axis (4 per cell in 2D)
   ShapeKind shape = ShapeKind::Linear;
   double flip = 0.99;
+  bool volumetric_averaging = false;  // cell-averaged tr L in the constitutive update
   std::vector<double> gravity;
 
   double dt = 0;         // fixed step, or the first/maximum step when adaptive
