@@ -163,3 +163,53 @@ TEST(MpmKernels, FreeFallingBlockFollowsHalfGTSquared) {
   EXPECT_NEAR(y0 - y1, 0.5 * g * t * t, 2e-3 * 0.5 * g * t * t);
   EXPECT_NEAR(y0 - y1, 0.5 * g * t * t + 0.5 * g * t * sc.dt, 1e-9);
 }
+
+TEST(MpmKernels, ThreeDimensionalBlockFallsFreelyAndRestsOnAFloor) {
+  // 3D uses the same kernels (dimension template); a free fall and a short rest on a floor.
+  Scene sc = small_column_scene(ModelKind::Frictional, ShapeKind::QuadraticBSpline);
+  sc.dim = 3;
+  sc.origin = {0.0, 0.0, 0.0};
+  sc.size = {0.2, 0.2, 0.2};
+  sc.h = 0.02;
+  sc.gravity = {0.0, -9.81, 0.0};
+  sc.dt = 1e-4;
+  sc.bodies[0].box_min = {0.06, 0.1, 0.06};
+  sc.bodies[0].box_max = {0.14, 0.16, 0.14};
+  sc.walls.clear();
+  Stage s;
+  s.duration = 0.05;
+  sc.stages = {s};
+  sc.tracks.clear();
+  sc.output.times.clear();
+  sc.runout_x.clear();
+  sc.runout_y.clear();
+  const SceneSetup su = make_setup(sc);
+  EXPECT_EQ(su.particles.n, 4L * 3 * 4 * 8);
+  auto r = make_cpu_runner(su);
+  RunOptions opt;
+  opt.progress = false;
+  const RunSummary res = run(su, *r, opt);
+  ASSERT_TRUE(res.ok) << res.message;
+  Frame f;
+  r->frame(f, false);
+  const long n = f.n;
+  double dy = 0;
+  for (long i = 0; i < n; ++i) dy += (su.particles.x[n + i] - f.x[n + i]) / n;
+  EXPECT_NEAR(dy, 0.5 * 9.81 * 0.05 * 0.05 + 0.5 * 9.81 * 0.05 * sc.dt, 1e-9);
+
+  sc.walls.push_back({1, false, 0.1, true, "wall.floor"});  // floor right under the block
+  sc.stages[0].damping = 0.5;
+  const SceneSetup su2 = make_setup(sc);
+  EXPECT_TRUE(su2.has_boundary);
+  auto r2 = make_cpu_runner(su2);
+  const RunSummary res2 = run(su2, *r2, opt);
+  ASSERT_TRUE(res2.ok) << res2.message;
+  Frame f2;
+  r2->frame(f2, true);
+  double ymin = 1;
+  for (long i = 0; i < n; ++i) ymin = std::min(ymin, f2.x[n + i]);
+  EXPECT_GT(ymin, 0.1);  // resting on the floor, not through it
+  double p_mean = 0;
+  for (long i = 0; i < n; ++i) p_mean += f2.p[i] / n;
+  EXPECT_GT(p_mean, 0.0);  // the block carries its weight
+}
