@@ -322,3 +322,23 @@ TEST(MpmIo, SceneFilesMatchInCodeScenes) {
   expect_same_scene(io::load_scene(dir + "flume.toml"), flume_scene(0.005, 1e-6, MK::PhaseTransition, SK::Linear, 3.0));
   expect_same_scene(io::load_scene(dir + "flume_frictional.toml"), flume_scene(0.005, 1e-6, MK::Frictional, SK::Linear, 3.0));
 }
+
+TEST(MpmIo, GeostaticInitialStressLiesOnTheYieldSurface) {
+  const Scene sc = io::load_scene(write_tmp("geo", replace(kGood, "[[body]]", "[initial_stress]\nkind = \"geostatic\"\nK0 = 0.6\n\n[[body]]")));
+  ASSERT_TRUE(sc.initial.geostatic);
+  const SceneSetup su = make_setup(sc);
+  const HostParticles& hp = su.particles;
+  const long n = hp.n;
+  const double rho0 = sc.material.params.c.rho_p / (1 + sc.material.e0);
+  for (long i = 0; i < n; ++i) {
+    const double depth = 0.1 - hp.x[n + i];
+    EXPECT_NEAR(hp.sig[n + i], -rho0 * 9.81 * depth, 1e-9 * rho0 * 9.81);        // sigma_yy
+    EXPECT_NEAR(hp.sig[i], 0.6 * hp.sig[n + i], 1e-12 * rho0);                  // sigma_xx = K0 sigma_yy
+    Mat3<double> s = Mat3<double>::Zero();
+    s(0, 0) = hp.sig[i];
+    s(1, 1) = hp.sig[n + i];
+    s(2, 2) = hp.sig[2 * n + i];
+    EXPECT_GT(hp.eps[i], 0.0);
+    EXPECT_NEAR((yield_function<LodeShape::SmoothMohrCoulomb>(sc.material.params.f, s, hp.eps[i], sc.material.e0)), 0.0, 1e-9);
+  }
+}
