@@ -138,8 +138,8 @@ class CpuRunner final : public Runner {
     return r;
   }
 
-  void frame(Frame& out, bool diagnostics) override {
-    detail::make_frame<D, S, Model>(part_, n_, sp_.mp, out, diagnostics);
+  void frame(Frame& out, bool diagnostics, const std::vector<long>& subset) override {
+    detail::make_frame<D, S, Model>(part_, n_, sp_.mp, out, diagnostics, subset);
   }
   void download(HostParticles& out) override { detail::unpack<D, S, Model::kCollisional>(part_, n_, out); }
   PhaseTimes times() const override { return times_; }

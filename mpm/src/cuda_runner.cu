@@ -192,9 +192,9 @@ class CudaRunner final : public Runner {
     return r;
   }
 
-  void frame(Frame& out, bool diagnostics) override {
+  void frame(Frame& out, bool diagnostics, const std::vector<long>& subset) override {
     std::vector<S> host = download_raw();
-    detail::make_frame<D, S, Model>(host, n_, sp_.mp, out, diagnostics);
+    detail::make_frame<D, S, Model>(host, n_, sp_.mp, out, diagnostics, subset);
   }
   void download(HostParticles& out) override {
     detail::unpack<D, S, Model::kCollisional>(download_raw(), n_, out);

@@ -176,16 +176,23 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
   double t_stop = t_total;
   if (opt.stop_after > 0) t_stop = std::min(t_stop, opt.stop_after);
 
-  Frame fr, last_good;
+  // Samples (run-out, tracked points) use light frames: positions, velocities and T for all
+  // particles, full diagnostics only for the tracked ones. Frames written to disk are full.
+  Frame fr, full, last_good;
   double last_good_t = 0;
+  auto full_frame = [&]() -> const Frame& {
+    runner.frame(full, true);
+    return full;
+  };
   auto sample = [&](double t, int stage) {
-    runner.frame(fr, true);
+    runner.frame(fr, false, su.tracked);
     const Measures m = measure(fr, su, mass);
     sum.series.push_back({t, t - t_release, stage, m});
     for (size_t k = 0; k < su.tracked.size(); ++k) {
       const long i = su.tracked[k], n = fr.n;
-      sum.tracks.push_back({t, t - t_release, k, fr.x[i], fr.x[n + i], fr.v[i], fr.v[n + i], fr.p[i], fr.q[i],
-                            fr.eps_pd[i], fr.T[i], fr.eta_c[i], fr.K_col[i]});
+      const PointDiagnostics& d = fr.subset[k];
+      sum.tracks.push_back({t, t - t_release, k, fr.x[i], fr.x[n + i], fr.v[i], fr.v[n + i], d.p, d.q, d.eps_pd, d.T,
+                            d.eta_c, d.K_col});
     }
     last_good = fr;
     last_good_t = t;
@@ -210,7 +217,7 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
   std::vector<double> out_times = sc.output.times;
   std::sort(out_times.begin(), out_times.end());
   sample(0.0, 0);
-  write_frame(fr, 0.0, "");
+  write_frame(full_frame(), 0.0, "");
   double next_sample = sc.output.series_dt;
   bool stop = false;
   for (int si = 0; si < static_cast<int>(sc.stages.size()) && !stop; ++si) {
@@ -248,7 +255,7 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
       }
       if (next_out < out_times.size() && t >= t_release + out_times[next_out] - 1e-12) {
         if (sum.series.back().t != t) sample(t, si);
-        write_frame(fr, t, "");
+        write_frame(full_frame(), t, "");
         ++next_out;
       }
       if (t >= t_stop - 1e-12) stop = true;
@@ -264,12 +271,14 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
     }
     if (!sum.ok) break;
     if (sum.series.back().t != t) sample(t, si);
-    if (si == 0 && sc.stages.size() > 1 && t >= t_stage_end * (1 - 1e-12))
-      sum.consolidation = check_consolidation(fr, su);
-    if (si + 1 < static_cast<int>(sc.stages.size()) && sc.output.frames_in_stages) write_frame(fr, t, "_" + stage_name(sc, si));
+    const bool stage_frame = si + 1 < static_cast<int>(sc.stages.size()) && sc.output.frames_in_stages;
+    const bool check = si == 0 && sc.stages.size() > 1 && t >= t_stage_end * (1 - 1e-12);
+    if (stage_frame || check) full_frame();
+    if (check) sum.consolidation = check_consolidation(full, su);
+    if (stage_frame) write_frame(full, t, "_" + stage_name(sc, si));
   }
   if (opt.progress) std::fprintf(stderr, "\n");
-  if (sum.ok && (pvd.empty() || pvd.back().first != t)) write_frame(fr, t, "_final");
+  if (sum.ok && (pvd.empty() || pvd.back().first != t)) write_frame(full_frame(), t, "_final");
   sum.steps = step;
   sum.t_end = t;
   sum.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();

@@ -106,7 +106,8 @@ void unpack(const std::vector<S>& a, long n, HostParticles& hp) {
 // Output fields from a host copy of the particle buffer. p and q are those of the total
 // stress; eta_c, K_col and T come from Model::diagnostics with D of the last step.
 template <int D, class S, class Model>
-void make_frame(const std::vector<S>& a, long n, const typename Model::Params& mp, Frame& fr, bool diagnostics) {
+void make_frame(const std::vector<S>& a, long n, const typename Model::Params& mp, Frame& fr, bool diagnostics,
+                const std::vector<long>& subset = {}) {
   using Lay = ParticleLayout<D, Model::kCollisional>;
   ParticleView<S> pv{const_cast<S*>(a.data()), n};
   fr.n = n;
@@ -118,16 +119,34 @@ void make_frame(const std::vector<S>& a, long n, const typename Model::Params& m
       fr.x[d * n + i] = pv.f(Lay::X + d, i);
       fr.v[d * n + i] = pv.f(Lay::V + d, i);
     }
-  if (!diagnostics) return;
-  for (auto* f : {&fr.p, &fr.q, &fr.eps_pd, &fr.T, &fr.eta_c, &fr.K_col, &fr.e, &fr.sxx, &fr.syy, &fr.sxy})
-    f->assign(n, 0.0);
-  for (long i = 0; i < n; ++i) {
+  fr.T.assign(n, 0.0);
+  if constexpr (Model::kCollisional)
+    for (long i = 0; i < n; ++i) fr.T[i] = pv.f(Lay::SQT, i) * pv.f(Lay::SQT, i);
+  auto point = [&](long i, Diagnostics<S>& dg, Mat3<S>& sig) {
     const auto st = StateIO<Model>::template load<D>(pv, i);
     Mat3<S> L = Mat3<S>::Zero();
     for (int r = 0; r < D; ++r)
       for (int c = 0; c < D; ++c) L(r, c) = pv.f(Lay::L + r * D + c, i);
-    const Diagnostics<S> dg = Model::diagnostics(mp, st, sym(L));
-    const Mat3<S> sig = load_sym(pv, Lay::SIG, i);
+    dg = Model::diagnostics(mp, st, sym(L));
+    sig = load_sym(pv, Lay::SIG, i);
+  };
+  fr.subset.clear();
+  if (!diagnostics) {
+    for (auto* f : {&fr.p, &fr.q, &fr.eps_pd, &fr.eta_c, &fr.K_col, &fr.e, &fr.sxx, &fr.syy, &fr.sxy}) f->clear();
+    for (long i : subset) {
+      Diagnostics<S> dg;
+      Mat3<S> sig;
+      point(i, dg, sig);
+      fr.subset.push_back({mean_pressure(sig), deviatoric_q(sig), dg.eps_pd, dg.T, dg.eta_c, dg.K_col});
+    }
+    return;
+  }
+  for (auto* f : {&fr.p, &fr.q, &fr.eps_pd, &fr.eta_c, &fr.K_col, &fr.e, &fr.sxx, &fr.syy, &fr.sxy})
+    f->assign(n, 0.0);
+  for (long i = 0; i < n; ++i) {
+    Diagnostics<S> dg;
+    Mat3<S> sig;
+    point(i, dg, sig);
     fr.p[i] = mean_pressure(sig);
     fr.q[i] = deviatoric_q(sig);
     fr.eps_pd[i] = dg.eps_pd;

@@ -61,12 +61,20 @@ struct UpdateStats {
   long separated = 0;       // points treated as separated (e at the cap)
 };
 
+// Diagnostics of one particle.
+struct PointDiagnostics {
+  double p = 0, q = 0, eps_pd = 0, T = 0, eta_c = 0, K_col = 0;
+};
+
 // Per-particle output fields (diagnostics evaluated with Model::diagnostics on the host).
+// A light frame (diagnostics = false) has x, v and T only, plus `subset` for chosen particles.
 struct Frame {
   long n = 0;
   int dim = 2;
   std::vector<double> x, v;  // component-major
-  std::vector<double> p, q, eps_pd, T, eta_c, K_col, e, sxx, syy, sxy;
+  std::vector<double> T;     // always (zero for the frictional-only model)
+  std::vector<double> p, q, eps_pd, eta_c, K_col, e, sxx, syy, sxy;  // full frames only
+  std::vector<PointDiagnostics> subset;  // light frames: one per requested particle
 };
 
 class Runner {
@@ -76,7 +84,7 @@ class Runner {
   // One explicit step; want_dt_limit asks for the smallest stable step of the new state.
   virtual StepResult step(double dt, bool want_dt_limit) = 0;
   // Copies the state to the host; with diagnostics the derived fields of Frame are filled.
-  virtual void frame(Frame& out, bool diagnostics) = 0;
+  virtual void frame(Frame& out, bool diagnostics, const std::vector<long>& subset = {}) = 0;
   virtual void download(HostParticles& out) = 0;
   virtual PhaseTimes times() const = 0;
   virtual void reset_times() = 0;
