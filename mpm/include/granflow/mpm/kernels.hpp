@@ -1,0 +1,313 @@
+// The MPM step, written once for every backend (MODEL.md 9; STYLE.md: one phase, one function).
+//
+//   1. P2G   (p2g_load + p2g_contribution): mass, momentum and force  f = -sum V sigma grad N
+//   2. grid  (grid_update_node): v_old = p/m, v_new = v_old + dt (f/m + g), boundary masks
+//   3. G2P   (g2p_particle): FLIP/PIC velocity, position with the grid velocity, velocity
+//            gradient from v_new, then the constitutive update (Model::update, Jaumann inside).
+//
+// This is USL (update stress last): the stress that produces the forces of step n+1 comes
+// from the velocity gradient of step n. The CPU twin gathers contributions per node
+// (deterministic); the CUDA backend scatters them per particle with atomics. Both call the
+// same per-pair function, so they differ only in summation order.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include <granflow/constitutive.hpp>
+
+#include "layout.hpp"
+#include "shape.hpp"
+
+namespace granflow::mpm {
+
+// Status of one particle after G2P (0: fine). The constitutive flags go in the bits above 8.
+enum Status : std::uint32_t {
+  kOk = 0,
+  kLeftGrid = 1,          // field "position": the stencil of the new position leaves the grid
+  kNonFiniteVelocity = 2, // field "velocity"
+  kConstitutive = 3,      // field "stress": Model::update reported non-finite / inadmissible
+};
+
+// Void ratio at which a dilating point counts as separated (just inside e < 2.97 of Eq. 13).
+inline constexpr double kSeparatedVoidRatio = 2.9;
+// Bit of the per-particle update record marking a separated point (library flags use bits 0-5).
+inline constexpr std::uint32_t kSeparatedFlag = 1u << 7;
+
+// Everything a step needs besides the arrays; passed by value to kernels.
+template <int D, class S, class Model>
+struct StepParams {
+  GridDesc<D, S> grid;
+  typename Model::Params mp;
+  S rho_p;            // particle (grain) density; bulk density = rho_p / (1 + e)
+  S gravity[D];
+  S dt;
+  S flip;             // FLIP fraction of the FLIP/PIC blend (1: FLIP, 0: PIC)
+  S damping;          // Cundall local damping on the grid (consolidation stages), 0: none
+  S mass_eps;         // nodes lighter than this are treated as empty
+  S cfl;              // safety factor of the time-step limit
+  int want_dt_limit;  // compute the per-particle stable time step in G2P
+  int vol_avg;        // replace tr L by its volume-weighted mean over the particle's bin
+};
+
+// ---- 1. P2G ------------------------------------------------------------------------------
+
+template <int D, class S>
+struct P2GParticle {
+  S xi[D];        // grid coordinate (x - origin) / h
+  S m;
+  S mv[D];        // momentum
+  S Vsig[D][D];   // volume times stress (the in-plane block in 2D)
+};
+
+template <int D, class S, class Model>
+GF_HDI P2GParticle<D, S> p2g_load(const ParticleView<S>& pv, long p, const StepParams<D, S, Model>& sp) {
+  using Lay = ParticleLayout<D, Model::kCollisional>;
+  P2GParticle<D, S> q;
+  q.m = pv.f(Lay::M, p);
+  for (int d = 0; d < D; ++d) {
+    q.xi[d] = (pv.f(Lay::X + d, p) - sp.grid.origin[d]) * sp.grid.inv_h;
+    q.mv[d] = q.m * pv.f(Lay::V + d, p);
+  }
+  const S V = q.m * (S(1) + pv.f(Lay::E, p)) / sp.rho_p;  // V = m / rho, rho = rho_p / (1 + e)
+  const Mat3<S> sig = load_sym(pv, Lay::SIG, p);
+  for (int a = 0; a < D; ++a)
+    for (int b = 0; b < D; ++b) q.Vsig[a][b] = V * sig(a, b);
+  return q;
+}
+
+// Contribution of one particle to node I: out[0] mass, out[1..D] momentum, out[1+D..2D] force.
+template <int D, class S, class Shape>
+GF_HDI void p2g_contribution(const P2GParticle<D, S>& q, const int* I, S inv_h, S* out) {
+  S w[D], g[D];
+  for (int d = 0; d < D; ++d) {
+    const S r = q.xi[d] - S(I[d]);
+    w[d] = Shape::w(r);
+    g[d] = Shape::dw(r) * inv_h;
+  }
+  S N = S(1);
+  for (int d = 0; d < D; ++d) N *= w[d];
+  S gradN[D];
+  for (int d = 0; d < D; ++d) {
+    S v = g[d];
+    for (int k = 0; k < D; ++k)
+      if (k != d) v *= w[k];
+    gradN[d] = v;
+  }
+  out[0] = N * q.m;
+  for (int d = 0; d < D; ++d) out[1 + d] = N * q.mv[d];
+  for (int a = 0; a < D; ++a) {
+    S f = S(0);
+    for (int b = 0; b < D; ++b) f -= q.Vsig[a][b] * gradN[b];
+    out[1 + D + a] = f;
+  }
+}
+
+// Lowest stencil node of a particle (per axis) and whether the whole stencil is on the grid.
+template <int D, class S, class Shape>
+GF_HDI bool stencil_base(const S* xi, const GridDesc<D, S>& g, int* base) {
+  bool inside = true;
+  for (int d = 0; d < D; ++d) {
+    if (!(xi[d] > S(-4) && xi[d] < S(g.nodes[d] + 4))) {  // also catches NaN
+      base[d] = 0;
+      inside = false;
+      continue;
+    }
+    base[d] = Shape::base(xi[d]);
+    if (base[d] < 0 || base[d] + Shape::K > g.nodes[d]) inside = false;
+  }
+  return inside;
+}
+
+// ---- 2. grid update ----------------------------------------------------------------------
+
+template <int D, class S, class Model, bool kBoundary>
+GF_HDI void grid_update_node(const GridView<S>& gv, long I, const StepParams<D, S, Model>& sp) {
+  using G = GridLayout<D>;
+  const S m = gv.f(G::M, I);
+  if (!(m > sp.mass_eps)) {
+    for (int d = 0; d < D; ++d) gv.f(G::VOLD + d, I) = gv.f(G::VNEW + d, I) = S(0);
+    return;
+  }
+  std::uint8_t mask = 0;
+  if constexpr (kBoundary) mask = gv.mask[I];
+  for (int d = 0; d < D; ++d) {
+    const S vo = gv.f(G::P + d, I) / m;
+    S a = gv.f(G::F + d, I) / m + sp.gravity[d];
+    if (sp.damping > S(0)) a -= sp.damping * std::fabs(a) * (vo > S(0) ? S(1) : (vo < S(0) ? S(-1) : S(0)));
+    S vn = vo + sp.dt * a;
+    if constexpr (kBoundary) {
+      if (mask & (1u << d)) vn = S(0);
+    }
+    gv.f(G::VOLD + d, I) = vo;
+    gv.f(G::VNEW + d, I) = vn;
+  }
+}
+
+// ---- 3. G2P and constitutive update ------------------------------------------------------
+
+// 2D plane strain: the in-plane gradient embedded in 3x3 with a zero z row and column.
+template <int D, class S>
+GF_HDI Mat3<S> embed_gradient(const S (&L)[D][D]) {
+  Mat3<S> L3 = Mat3<S>::Zero();
+  for (int a = 0; a < D; ++a)
+    for (int b = 0; b < D; ++b) L3(a, b) = L[a][b];
+  return L3;
+}
+
+// Stable time step of one particle: CFL with the elastic P-wave speed of the skeleton
+// (K_f, G_f from the library) plus the particle speed, and the viscous (diffusive) limit
+// dt <= rho h^2 / (2 n_dim (4/3 eta_c + kappa_c)) of MODEL.md 9.
+template <int D, class S, class Model>
+GF_HDI S particle_dt_limit(const typename Model::State& st, const StepParams<D, S, Model>& sp, S speed) {
+  const FrictionalParams<S>& fp = frictional_params(sp.mp);
+  const S rho = sp.rho_p / (S(1) + st.e);
+  Mat3<S> sigf;
+  if constexpr (Model::kCollisional) sigf = st.sigma_f; else sigf = st.sigma;
+  const ElasticModuli<S> c = elastic_moduli(fp, mean_pressure(sigf), st.e);
+  const S wave = std::sqrt((c.K + S(4) / S(3) * c.G) / rho);
+  const S h = sp.grid.h;
+  S lim = sp.cfl * h / (wave + speed);
+  if constexpr (Model::kCollisional) {
+    const KineticCoefficients<S> kc = kinetic_coefficients(sp.mp.c, S(1) / (S(1) + st.e));
+    const CollisionalTransport<S> t = collisional_transport(sp.mp.c, kc, st.s);
+    const S visc = S(4) / S(3) * t.eta + t.kappa;
+    if (visc > S(0)) {
+      const S lv = sp.cfl * rho * h * h / (S(2) * S(D) * visc);
+      lim = lv < lim ? lv : lim;
+    }
+  }
+  return lim;
+}
+
+// 3a. Velocity, position and velocity gradient of one particle (L stored in the particle).
+template <int D, class S, class Model, class Shape>
+GF_HDI std::uint32_t g2p_kinematics(const ParticleView<S>& pv, const GridView<S>& gv, long p,
+                                    const StepParams<D, S, Model>& sp) {
+  using Lay = ParticleLayout<D, Model::kCollisional>;
+  using G = GridLayout<D>;
+  S xi[D];
+  for (int d = 0; d < D; ++d) xi[d] = (pv.f(Lay::X + d, p) - sp.grid.origin[d]) * sp.grid.inv_h;
+  int base[D];
+  if (!stencil_base<D, S, Shape>(xi, sp.grid, base)) return kLeftGrid;
+
+  S vpic[D] = {}, dv[D] = {}, L[D][D] = {};
+  constexpr int K = Shape::K;
+  int n_st = 1;
+  for (int d = 0; d < D; ++d) n_st *= K;
+  for (int k = 0; k < n_st; ++k) {
+    int I[D], kk = k;
+    for (int d = 0; d < D; ++d) {
+      I[d] = base[d] + kk % K;
+      kk /= K;
+    }
+    S w[D], g[D];
+    for (int d = 0; d < D; ++d) {
+      const S r = xi[d] - S(I[d]);
+      w[d] = Shape::w(r);
+      g[d] = Shape::dw(r) * sp.grid.inv_h;
+    }
+    S N = S(1);
+    for (int d = 0; d < D; ++d) N *= w[d];
+    S gradN[D];
+    for (int d = 0; d < D; ++d) {
+      S v = g[d];
+      for (int j = 0; j < D; ++j)
+        if (j != d) v *= w[j];
+      gradN[d] = v;
+    }
+    const long n = sp.grid.linear(I);
+    for (int a = 0; a < D; ++a) {
+      const S vn = gv.f(G::VNEW + a, n);
+      vpic[a] += N * vn;
+      dv[a] += N * (vn - gv.f(G::VOLD + a, n));
+      for (int b = 0; b < D; ++b) L[a][b] += vn * gradN[b];
+    }
+  }
+  for (int d = 0; d < D; ++d) {
+    const S v = sp.flip * (pv.f(Lay::V + d, p) + dv[d]) + (S(1) - sp.flip) * vpic[d];
+    if (!std::isfinite(v)) return kNonFiniteVelocity;
+    pv.f(Lay::V + d, p) = v;
+    pv.f(Lay::X + d, p) += sp.dt * vpic[d];
+  }
+  for (int a = 0; a < D; ++a)
+    for (int b = 0; b < D; ++b) pv.f(Lay::L + a * D + b, p) = L[a][b];
+  for (int d = 0; d < D; ++d) xi[d] = (pv.f(Lay::X + d, p) - sp.grid.origin[d]) * sp.grid.inv_h;
+  if (!stencil_base<D, S, Shape>(xi, sp.grid, base)) return kLeftGrid;
+  return kOk;
+}
+
+// Volume and in-plane volumetric rate of a particle after 3a (for cell averaging).
+template <int D, class S, class Model>
+GF_HDI void volumetric_rate(const ParticleView<S>& pv, long p, const StepParams<D, S, Model>& sp, S& V, S& trL) {
+  using Lay = ParticleLayout<D, Model::kCollisional>;
+  V = pv.f(Lay::M, p) * (S(1) + pv.f(Lay::E, p)) / sp.rho_p;
+  trL = S(0);
+  for (int d = 0; d < D; ++d) trL += pv.f(Lay::L + d * D + d, p);
+}
+
+// 3b. Constitutive update of one particle from the stored L. With tr_bar finite, the
+// volumetric part of L is replaced by tr_bar (the volume-weighted mean over the particle's
+// bin: the "cell-averaged volumetric strain rate" that damps pressure checkerboarding).
+template <int D, class S, class Model>
+GF_HDI std::uint32_t constitutive_particle(const ParticleView<S>& pv, long p, const StepParams<D, S, Model>& sp,
+                                           S tr_bar, S* dt_limit, std::uint32_t* upd_info) {
+  using Lay = ParticleLayout<D, Model::kCollisional>;
+  S L[D][D];
+  for (int a = 0; a < D; ++a)
+    for (int b = 0; b < D; ++b) L[a][b] = pv.f(Lay::L + a * D + b, p);
+  if (std::isfinite(tr_bar)) {
+    S tr = S(0);
+    for (int d = 0; d < D; ++d) tr += L[d][d];
+    for (int d = 0; d < D; ++d) L[d][d] += (tr_bar - tr) / S(D);
+  }
+  using IO = StateIO<Model>;
+  typename Model::State st = IO::template load<D>(pv, p);
+  Mat3<S> stress;
+  const Mat3<S> L3 = embed_gradient<D, S>(L);
+  const S e_trial = (S(1) + st.e) * std::exp(trace(L3) * sp.dt) - S(1);
+  const UpdateInfo inf = Model::update(sp.mp, st, L3, sp.dt, stress);
+  const std::uint32_t nsub = inf.substeps < 65535 ? static_cast<std::uint32_t>(inf.substeps) : 65535u;
+  *upd_info = (inf.flags & 0xffu) | (nsub << 16);
+  if (inf.ok()) {
+    IO::template store<D>(pv, p, st);
+    store_sym(pv, Lay::SIG, p, stress);
+  } else if ((inf.flags & info::kInadmissible) && e_trial >= S(kSeparatedVoidRatio)) {
+    // A point torn off the bulk (free surface, rear of a slide) dilates past the range of
+    // Eq. (13): the grains have separated. It carries no stress and keeps e at the cap until
+    // it is compressed again (MPM policy, not part of the constitutive model).
+    store_sym(pv, Lay::SIGF, p, Mat3<S>(Mat3<S>::Zero()));
+    store_sym(pv, Lay::SIG, p, Mat3<S>(Mat3<S>::Zero()));
+    pv.f(Lay::E, p) = S(kSeparatedVoidRatio);
+    *upd_info |= kSeparatedFlag;
+  } else {
+    return kConstitutive | (inf.flags << 8);
+  }
+  if (sp.want_dt_limit) {
+    S speed2 = S(0);
+    for (int d = 0; d < D; ++d) speed2 += pv.f(Lay::V + d, p) * pv.f(Lay::V + d, p);
+    *dt_limit = particle_dt_limit<D, S, Model>(st, sp, std::sqrt(speed2));
+  }
+  return kOk;
+}
+
+// 3. G2P and constitutive update fused (no volumetric averaging).
+template <int D, class S, class Model, class Shape>
+GF_HDI std::uint32_t g2p_particle(const ParticleView<S>& pv, const GridView<S>& gv, long p,
+                                  const StepParams<D, S, Model>& sp, S* dt_limit, std::uint32_t* upd_info) {
+  const std::uint32_t s = g2p_kinematics<D, S, Model, Shape>(pv, gv, p, sp);
+  if (s != kOk) return s;
+  return constitutive_particle<D, S, Model>(pv, p, sp, S(NAN), dt_limit, upd_info);
+}
+
+inline const char* status_field(std::uint32_t s) {
+  switch (s & 0xffu) {
+    case kLeftGrid: return "position (left the grid)";
+    case kNonFiniteVelocity: return "velocity (non-finite)";
+    case kConstitutive: return (s >> 8) & info::kInadmissible ? "stress (inadmissible state: void ratio or T)"
+                                                              : "stress (non-finite constitutive update)";
+    default: return "none";
+  }
+}
+
+}  // namespace granflow::mpm

@@ -1,0 +1,131 @@
+// A scene as plain data: what the TOML loader (cli/io/scene.cpp) fills and the MPM takes.
+// No file format here; programs and tests may build scenes in code (see small_column_scene).
+#pragma once
+
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <granflow/constitutive.hpp>
+
+#include "shape.hpp"
+
+namespace granflow::mpm {
+
+// An inconsistent scene; the message starts with the offending key (e.g. "time.dt: ...").
+class SceneError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class ModelKind { PhaseTransition, Frictional };
+
+// Axis-aligned wall: nodes on and beyond `position` along `axis` are held.
+struct Wall {
+  int axis = 0;
+  bool at_max = false;    // false: the wall bounds the domain from below (x <= position)
+  double position = 0;
+  bool no_slip = true;    // no-slip: all components held; free-slip (roller): the normal one
+  std::string key;        // for messages
+};
+
+// Rigid base given as a polyline y = b(x) (x increasing): every node with y <= b(x) has all
+// components held (no-slip on an inclined plane: the flume). 2D only.
+struct BaseLine {
+  std::vector<double> x, y;
+};
+
+// A gate: nodes with (x - point) . normal >= 0 are held while the stage lasts.
+struct Gate {
+  std::vector<double> point, normal;
+  bool normal_only = true;  // hold only the normal component (axis-aligned normals only)
+};
+
+struct Stage {
+  std::string name;
+  double duration = 0;
+  std::optional<Gate> gate;
+  double damping = 0;                 // Cundall local damping factor in [0, 1)
+  std::optional<double> flip;         // overrides the scene's FLIP fraction in this stage
+};
+
+// Material region: an axis-aligned box, or (2D) a polygon.
+struct Body {
+  std::vector<double> box_min, box_max;
+  std::vector<double> poly_x, poly_y;
+  bool is_polygon() const { return !poly_x.empty(); }
+};
+
+struct Material {
+  std::string name;                   // parameter-set name or file, for the record
+  ModelKind model = ModelKind::PhaseTransition;
+  PhaseTransitionParams<double> params;  // the frictional-only model uses params.f and c.rho_p
+  double e0 = 0;
+  double T0 = 1e-15;
+};
+
+struct InitialStress {
+  bool geostatic = false;  // false: stress free (a consolidation stage builds it)
+  double K0 = -1;          // lateral coefficient; < 0: Jaky, 1 - sin(phi_c)
+};
+
+struct Track {
+  std::string name;
+  std::vector<double> x;  // the particle nearest to this point at t = 0
+};
+
+struct OutputSpec {
+  std::vector<double> times;     // frames, measured from the start of the last stage
+  double series_dt = 1e-3;       // sampling of run-out, height and tracked particles
+  bool binary = true;            // VTU data base64-encoded (false: ASCII)
+  bool frames_in_stages = true;  // one frame at the end of every earlier stage
+  std::vector<std::string> png_fields;  // fields plot_mpm.py draws
+};
+
+struct Scene {
+  std::string name;
+  std::string file;
+  int dim = 2;
+  std::vector<double> origin, size;  // grid box
+  double h = 0;                      // grid spacing
+  int ppc_axis = 2;                  // particles per cell along each axis (4 per cell in 2D)
+  ShapeKind shape = ShapeKind::Linear;
+  double flip = 0.99;
+  bool volumetric_averaging = false;  // cell-averaged tr L in the constitutive update
+  std::vector<double> gravity;
+
+  double dt = 0;         // fixed step, or the first/maximum step when adaptive
+  bool adaptive = false;
+  double cfl = 0.5;
+
+  Material material;
+  InitialStress initial;
+  std::vector<Body> bodies;
+  std::vector<Wall> walls;
+  std::optional<BaseLine> base;
+  std::vector<Stage> stages;
+
+  // Run-out is the curvilinear abscissa, along this polyline, of the front of the contiguous
+  // deposit; height is the largest distance above it (the floor in the column collapse).
+  std::vector<double> runout_x, runout_y;
+  std::vector<Track> tracks;
+  OutputSpec output;
+
+  double duration() const {
+    double t = 0;
+    for (const auto& s : stages) t += s.duration;
+    return t;
+  }
+};
+
+// The paper's scenes built in code, for programs without a TOML reader (the GPU machine) and
+// for tests; mpm/scenes/*.toml describe the same set-ups (a test checks they agree).
+// Column: 0.1 s damped consolidation with the gate, then `collapse_time` of collapse.
+Scene column_scene(double h, double dt, ModelKind model, ShapeKind shape, double collapse_time);
+// Flume: 0.1 s damped consolidation behind the gate, then `flow_time` of flow.
+Scene flume_scene(double h, double dt, ModelKind model, ShapeKind shape, double flow_time);
+// The CI column collapse: 10 mm grid, 4 points per cell, dt 5e-5 s, 0.4 s of collapse.
+Scene small_column_scene(ModelKind model, ShapeKind shape = ShapeKind::Linear);
+
+}  // namespace granflow::mpm

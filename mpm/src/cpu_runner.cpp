@@ -1,0 +1,236 @@
+// CPU twin: the kernels of kernels.hpp in OpenMP loops.
+// P2G is a gather: particles are binned (stable counting sort) by the lowest node of their
+// stencil, and each node sums the contributions of the bins that reach it in a fixed order.
+// The result is bitwise independent of the thread count (restart tests rely on this).
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "runner_common.hpp"
+
+namespace granflow::mpm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+template <int D, class S, class Model, class Shape, bool kBoundary>
+class CpuRunner final : public Runner {
+  using Lay = ParticleLayout<D, Model::kCollisional>;
+  using G = GridLayout<D>;
+  static constexpr int K = Shape::K;
+
+ public:
+  explicit CpuRunner(const SceneSetup& su)
+      : masks_(su.stage_masks), sp_(detail::step_params<D, S, Model>(su)), n_(su.particles.n) {
+    part_ = detail::pack<D, S, Model::kCollisional>(su.particles);
+    grid_.assign(static_cast<size_t>(G::N) * sp_.grid.n_nodes, S(0));
+    if (sp_.vol_avg) trbar_.assign(sp_.grid.n_nodes, S(0));
+    bin_start_.assign(sp_.grid.n_nodes + 1, 0);
+    order_.resize(n_);
+    key_.resize(n_);
+    dtlim_.resize(n_);
+    status_.resize(n_);
+    info_.resize(n_);
+    set_stage(0, 0.0, su.scene.flip);
+  }
+
+  void set_stage(int stage, double damping, double flip) override {
+    stage_ = stage;
+    sp_.damping = S(damping);
+    sp_.flip = S(flip);
+  }
+
+  StepResult step(double dt, bool want_dt_limit) override {
+    sp_.dt = S(dt);
+    sp_.want_dt_limit = want_dt_limit ? 1 : 0;
+    const ParticleView<S> pv{part_.data(), n_};
+    const GridView<S> gv{grid_.data(), sp_.grid.n_nodes, masks_[stage_].data()};
+    auto t0 = Clock::now();
+    p2g(pv, gv);
+    times_.p2g += seconds_since(t0);
+    t0 = Clock::now();
+    const long nn = sp_.grid.n_nodes;
+#pragma omp parallel for schedule(static)
+    for (long I = 0; I < nn; ++I) grid_update_node<D, S, Model, kBoundary>(gv, I, sp_);
+    times_.grid += seconds_since(t0);
+    t0 = Clock::now();
+    std::uint32_t any = 0;
+    S* lim = dtlim_.data();
+    std::uint32_t* st = status_.data();
+    std::uint32_t* inf = info_.data();
+    if (!sp_.vol_avg) {
+#pragma omp parallel for schedule(dynamic, 256) reduction(| : any)
+      for (long p = 0; p < n_; ++p) {
+        inf[p] = 0;
+        st[p] = g2p_particle<D, S, Model, Shape>(pv, gv, p, sp_, &lim[p], &inf[p]);
+        any |= st[p];
+      }
+    } else {
+#pragma omp parallel for schedule(static) reduction(| : any)
+      for (long p = 0; p < n_; ++p) {
+        inf[p] = 0;
+        st[p] = g2p_kinematics<D, S, Model, Shape>(pv, gv, p, sp_);
+        any |= st[p];
+      }
+      if (!any) {
+        // volume-weighted mean of tr L per bin (the particles binned in P2G, in order)
+        const long nn = sp_.grid.n_nodes;
+        S* tb = trbar_.data();
+#pragma omp parallel for schedule(static)
+        for (long b = 0; b < nn; ++b) {
+          S sv = S(0), st_ = S(0);
+          for (long j = bin_start_[b]; j < bin_start_[b + 1]; ++j) {
+            S V, tr;
+            volumetric_rate<D, S, Model>(pv, order_[j], sp_, V, tr);
+            sv += V;
+            st_ += V * tr;
+          }
+          tb[b] = sv > S(0) ? st_ / sv : S(0);
+        }
+#pragma omp parallel for schedule(dynamic, 256) reduction(| : any)
+        for (long p = 0; p < n_; ++p) {
+          st[p] = constitutive_particle<D, S, Model>(pv, p, sp_, tb[key_[p]], &lim[p], &inf[p]);
+          any |= st[p];
+        }
+      }
+    }
+    times_.g2p += seconds_since(t0);
+    ++times_.steps;
+    long sub = 0, lim_hits = 0, cut = 0, clamp = 0, sep = 0;
+#pragma omp parallel for reduction(+ : sub, lim_hits, cut, clamp, sep)
+    for (long p = 0; p < n_; ++p) {
+      const std::uint32_t f = inf[p];
+      sub += f >> 16;
+      lim_hits += (f & info::kSubstepLimit) != 0;
+      cut += (f & info::kTensionCutoff) != 0;
+      clamp += (f & info::kVsClamped) != 0;
+      sep += (f & kSeparatedFlag) != 0;
+    }
+    stats_.updates += n_;
+    stats_.substeps += sub;
+    stats_.substep_limit += lim_hits;
+    stats_.tension_cutoff += cut;
+    stats_.vs_clamped += clamp;
+    stats_.separated += sep;
+    StepResult r;
+    if (any) {
+      for (long p = 0; p < n_; ++p)
+        if (st[p]) {
+          r.ok = false;
+          r.particle = p;
+          r.status = st[p];
+          break;
+        }
+    }
+    if (want_dt_limit) {
+      S m = std::numeric_limits<S>::max();
+#pragma omp parallel for reduction(min : m)
+      for (long p = 0; p < n_; ++p) m = std::min(m, lim[p]);
+      r.dt_limit = double(m);
+    }
+    return r;
+  }
+
+  void frame(Frame& out, bool diagnostics, const std::vector<long>& subset) override {
+    detail::make_frame<D, S, Model>(part_, n_, sp_.mp, out, diagnostics, subset);
+  }
+  void download(HostParticles& out) override { detail::unpack<D, S, Model::kCollisional>(part_, n_, out); }
+  PhaseTimes times() const override { return times_; }
+  UpdateStats update_stats() const override { return stats_; }
+  void reset_times() override { times_ = PhaseTimes{}; }
+  std::string device() const override {
+    int threads = 1;
+#ifdef _OPENMP
+    threads = omp_get_max_threads();
+#endif
+    return "CPU twin (OpenMP, " + std::to_string(threads) + " threads)";
+  }
+  long particles() const override { return n_; }
+  long nodes() const override { return sp_.grid.n_nodes; }
+
+ private:
+  void p2g(const ParticleView<S>& pv, const GridView<S>& gv) {
+    const long nn = sp_.grid.n_nodes;
+    // 1. bin by the lowest stencil node (stable counting sort: order by particle index)
+    std::fill(bin_start_.begin(), bin_start_.end(), 0L);
+#pragma omp parallel for schedule(static)
+    for (long p = 0; p < n_; ++p) {
+      S xi[D];
+      int base[D];
+      for (int d = 0; d < D; ++d) xi[d] = (pv.f(Lay::X + d, p) - sp_.grid.origin[d]) * sp_.grid.inv_h;
+      stencil_base<D, S, Shape>(xi, sp_.grid, base);  // G2P guarantees the stencil is inside
+      key_[p] = sp_.grid.linear(base);
+    }
+    for (long p = 0; p < n_; ++p) ++bin_start_[key_[p] + 1];
+    for (long k = 0; k < nn; ++k) bin_start_[k + 1] += bin_start_[k];
+    {
+      std::vector<long>& fill = fill_;
+      fill.assign(bin_start_.begin(), bin_start_.end() - 1);
+      for (long p = 0; p < n_; ++p) order_[fill[key_[p]]++] = p;
+    }
+    // 2. gather per node from the bins whose stencils reach it
+    const long* start = bin_start_.data();
+    const long* order = order_.data();
+    const GridDesc<D, S>& g = sp_.grid;
+    int n_st = 1;
+    for (int d = 0; d < D; ++d) n_st *= K;
+#pragma omp parallel for schedule(static)
+    for (long I = 0; I < nn; ++I) {
+      int Im[D];
+      g.multi(I, Im);
+      S acc[1 + 2 * D] = {};
+      for (int k = 0; k < n_st; ++k) {
+        int B[D], kk = k;
+        bool ok = true;
+        for (int d = 0; d < D; ++d) {
+          B[d] = Im[d] - (K - 1) + kk % K;
+          kk /= K;
+          if (B[d] < 0) ok = false;
+        }
+        if (!ok) continue;
+        const long b = g.linear(B);
+        for (long j = start[b]; j < start[b + 1]; ++j) {
+          const P2GParticle<D, S> q = p2g_load<D, S, Model>(pv, order[j], sp_);
+          S c[1 + 2 * D];
+          p2g_contribution<D, S, Shape>(q, Im, g.inv_h, c);
+          for (int f = 0; f < 1 + 2 * D; ++f) acc[f] += c[f];
+        }
+      }
+      gv.f(G::M, I) = acc[0];
+      for (int d = 0; d < D; ++d) {
+        gv.f(G::P + d, I) = acc[1 + d];
+        gv.f(G::F + d, I) = acc[1 + D + d];
+      }
+    }
+  }
+
+  std::vector<std::vector<std::uint8_t>> masks_;
+  StepParams<D, S, Model> sp_;
+  long n_;
+  int stage_ = 0;
+  std::vector<S> part_, grid_, dtlim_, trbar_;
+  std::vector<long> bin_start_, order_, key_, fill_;
+  std::vector<std::uint32_t> status_, info_;
+  UpdateStats stats_;
+  PhaseTimes times_;
+};
+
+struct MakeCpu {
+  template <int D, class Model, class Shape, bool kB>
+  std::unique_ptr<Runner> run(const SceneSetup& su) {
+    return std::make_unique<CpuRunner<D, double, Model, Shape, kB>>(su);
+  }
+};
+
+}  // namespace
+
+std::unique_ptr<Runner> make_cpu_runner(const SceneSetup& su) { return detail::dispatch<double>(su, MakeCpu{}); }
+
+}  // namespace granflow::mpm

@@ -1,0 +1,13 @@
+// Built when CUDA is not available: the cuda backend reports itself missing.
+#include <stdexcept>
+
+#include <granflow/mpm/runner.hpp>
+
+namespace granflow::mpm {
+
+std::unique_ptr<Runner> make_cuda_runner(const SceneSetup&) {
+  throw std::runtime_error("this granflow was built without CUDA (nvcc not found); use --backend cpu");
+}
+bool cuda_backend_available() { return false; }
+
+}  // namespace granflow::mpm

@@ -1,0 +1,313 @@
+// Host time loop: stages, step size, sampling of run-out and tracked particles, frames,
+// progress line, and the stop on the first bad particle.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include <granflow/mpm/driver.hpp>
+#include <granflow/mpm/kernels.hpp>
+
+namespace granflow::mpm {
+namespace {
+
+struct Polyline {
+  std::vector<double> x, y, s0;  // vertices and curvilinear abscissa at each vertex
+  explicit Polyline(const Scene& sc) : x(sc.runout_x), y(sc.runout_y) {
+    if (x.size() < 2) {  // default: the bottom of the grid box along x
+      x = {sc.origin[0], sc.origin[0] + sc.size[0]};
+      y = {sc.origin[1], sc.origin[1]};
+    }
+    s0.assign(x.size(), 0.0);
+    for (size_t i = 1; i < x.size(); ++i) s0[i] = s0[i - 1] + std::hypot(x[i] - x[i - 1], y[i] - y[i - 1]);
+  }
+  // Abscissa of the nearest point and the signed distance above the line.
+  void project(double px, double py, double& s, double& above) const {
+    double best = std::numeric_limits<double>::max();
+    for (size_t i = 1; i < x.size(); ++i) {
+      const double dx = x[i] - x[i - 1], dy = y[i] - y[i - 1], len = std::hypot(dx, dy);
+      double t = ((px - x[i - 1]) * dx + (py - y[i - 1]) * dy) / (len * len);
+      t = std::clamp(t, 0.0, 1.0);
+      const double qx = x[i - 1] + t * dx, qy = y[i - 1] + t * dy;
+      const double dist = std::hypot(px - qx, py - qy);
+      if (dist < best) {
+        best = dist;
+        s = s0[i - 1] + t * len;
+        above = (dx * (py - y[i - 1]) - dy * (px - x[i - 1])) / len;
+      }
+    }
+  }
+};
+
+std::string stage_name(const Scene& sc, int i) { return sc.stages[i].name.empty() ? "stage" + std::to_string(i) : sc.stages[i].name; }
+
+}  // namespace
+
+Measures measure(const Frame& fr, const SceneSetup& su, const std::vector<double>& mass) {
+  const Scene& sc = su.scene;
+  const Polyline line(sc);
+  const long n = fr.n;
+  Measures m;
+  std::vector<double> s(n), a(n);
+  double smin = std::numeric_limits<double>::max(), smax = -smin;
+  for (long i = 0; i < n; ++i) {
+    line.project(fr.x[i], fr.x[n + i], s[i], a[i]);
+    smin = std::min(smin, s[i]);
+    smax = std::max(smax, s[i]);
+    double v2 = 0;
+    for (int d = 0; d < fr.dim; ++d) v2 += fr.v[d * n + i] * fr.v[d * n + i];
+    m.max_speed = std::max(m.max_speed, std::sqrt(v2));
+    m.kinetic_energy += 0.5 * mass[i] * v2;
+    if (!fr.T.empty()) {
+      m.mean_T += fr.T[i] / n;
+      m.max_T = std::max(m.max_T, fr.T[i]);
+    }
+  }
+  // Front of the contiguous deposit: bins of one grid cell along the line, walked from the
+  // rear until the first empty bin (isolated points thrown ahead do not count).
+  const double w = sc.h;
+  const long nb = static_cast<long>((smax - smin) / w) + 1;
+  std::vector<char> occ(nb, 0);
+  for (long i = 0; i < n; ++i) occ[static_cast<long>((s[i] - smin) / w)] = 1;
+  long last = 0;
+  while (last + 1 < nb && occ[last + 1]) ++last;
+  const double s_end = smin + (last + 1) * w;
+  double front = smin;
+  for (long i = 0; i < n; ++i)
+    if (s[i] < s_end) {
+      front = std::max(front, s[i]);
+      m.height = std::max(m.height, a[i]);
+    }
+  m.runout = front + 0.5 * su.spacing;
+  m.height += 0.5 * su.spacing;
+  return m;
+}
+
+std::vector<std::pair<double, double>> free_surface(const Frame& fr, const SceneSetup& su) {
+  const Scene& sc = su.scene;
+  const long n = fr.n;
+  const double x0 = sc.origin[0], w = sc.h;
+  const long nb = static_cast<long>(sc.size[0] / w) + 1;
+  std::vector<double> top(nb, -std::numeric_limits<double>::max());
+  for (long i = 0; i < n; ++i) {
+    const long b = std::clamp(static_cast<long>((fr.x[i] - x0) / w), 0L, nb - 1);
+    top[b] = std::max(top[b], fr.x[n + i] + 0.5 * su.spacing);
+  }
+  std::vector<std::pair<double, double>> out;
+  for (long b = 0; b < nb; ++b)
+    if (top[b] > -1e300) out.emplace_back(x0 + (b + 0.5) * w, top[b]);
+  return out;
+}
+
+namespace {
+
+ConsolidationCheck check_consolidation(const Frame& fr, const SceneSetup& su) {
+  // Middle half of the first body, depth bins of one grid cell; compare the mean -sigma_yy
+  // with rho g depth where rho is the current bulk density integrated from the top.
+  ConsolidationCheck c;
+  const Scene& sc = su.scene;
+  if (sc.bodies.empty() || sc.bodies[0].is_polygon()) return c;
+  const Body& b = sc.bodies[0];
+  const long n = fr.n;
+  const double xa = b.box_min[0] + 0.25 * (b.box_max[0] - b.box_min[0]);
+  const double xb = b.box_min[0] + 0.75 * (b.box_max[0] - b.box_min[0]);
+  const double g = std::fabs(sc.gravity[1]);
+  double top = -1e300;
+  for (long i = 0; i < n; ++i)
+    if (fr.x[i] >= xa && fr.x[i] <= xb) top = std::max(top, fr.x[n + i] + 0.5 * su.spacing);
+  const long nb = static_cast<long>((top - b.box_min[1]) / sc.h) + 1;
+  std::vector<double> sum(nb, 0), cnt(nb, 0), rho(nb, 0);
+  for (long i = 0; i < n; ++i) {
+    if (fr.x[i] < xa || fr.x[i] > xb) continue;
+    const long k = std::clamp(static_cast<long>((top - fr.x[n + i]) / sc.h), 0L, nb - 1);
+    sum[k] += -fr.syy[i];
+    rho[k] += sc.material.params.c.rho_p / (1 + fr.e[i]);
+    cnt[k] += 1;
+  }
+  double load = 0;  // rho g integrated over the bins above
+  for (long k = 0; k < nb; ++k) {
+    if (cnt[k] == 0) continue;
+    const double r = rho[k] / cnt[k];
+    const double depth_mid = load + r * g * 0.5 * sc.h;
+    load += r * g * sc.h;
+    const double sv = sum[k] / cnt[k];
+    if (k >= 1 && k + 1 < nb) {
+      c.max_rel_error = std::max(c.max_rel_error, std::fabs(sv - depth_mid) / depth_mid);
+    }
+    if (k + 1 == nb || (k + 2 == nb)) {
+      c.base_sigma_v = sv;
+      c.base_rho_g_h = depth_mid;
+    }
+  }
+  c.done = true;
+  return c;
+}
+
+void write_text(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream os(tmp);
+    os << text;
+    if (!os) throw std::runtime_error("cannot write " + tmp);
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+}  // namespace
+
+RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
+  using Clock = std::chrono::steady_clock;
+  const Scene& sc = su.scene;
+  RunSummary sum;
+  sum.device = runner.device();
+  const bool files = !opt.out_dir.empty();
+  if (files) std::filesystem::create_directories(opt.out_dir);
+  std::vector<std::pair<double, std::string>> pvd;
+  int frame_no = 0;
+  const std::vector<double>& mass = su.particles.m;
+
+  const double t_total = sc.duration();
+  double t_release = 0;
+  for (size_t i = 0; i + 1 < sc.stages.size(); ++i) t_release += sc.stages[i].duration;
+  double t_stop = t_total;
+  if (opt.stop_after > 0) t_stop = std::min(t_stop, opt.stop_after);
+
+  // Samples (run-out, tracked points) use light frames: positions, velocities and T for all
+  // particles, full diagnostics only for the tracked ones. Frames written to disk are full.
+  Frame fr, full, last_good;
+  double last_good_t = 0;
+  auto full_frame = [&]() -> const Frame& {
+    runner.frame(full, true);
+    return full;
+  };
+  auto sample = [&](double t, int stage) {
+    runner.frame(fr, false, su.tracked);
+    const Measures m = measure(fr, su, mass);
+    sum.series.push_back({t, t - t_release, stage, m});
+    for (size_t k = 0; k < su.tracked.size(); ++k) {
+      const long i = su.tracked[k], n = fr.n;
+      const PointDiagnostics& d = fr.subset[k];
+      sum.tracks.push_back({t, t - t_release, k, fr.x[i], fr.x[n + i], fr.v[i], fr.v[n + i], d.p, d.q, d.eps_pd, d.T,
+                            d.eta_c, d.K_col});
+    }
+    last_good = fr;
+    last_good_t = t;
+    sum.final = m;
+  };
+  auto write_frame = [&](const Frame& f, double t, const std::string& tag) {
+    if (!files) return;
+    char name[64];
+    std::snprintf(name, sizeof name, "frame_%04d%s.vtu", frame_no++, tag.c_str());
+    write_vtu(opt.out_dir + "/" + name, f, sc.output.binary);
+    pvd.emplace_back(t, name);
+    write_pvd(opt.out_dir + "/frames.pvd", pvd);
+  };
+
+  const auto wall0 = Clock::now();
+  auto last_print = wall0;
+  double t = 0;
+  long step = 0;
+  double dt = sc.adaptive ? std::min(sc.dt, sc.cfl * su.dt_estimate) : sc.dt;
+  double t_stage_end = 0;
+  size_t next_out = 0;
+  std::vector<double> out_times = sc.output.times;
+  std::sort(out_times.begin(), out_times.end());
+  sample(0.0, 0);
+  write_frame(full_frame(), 0.0, "");
+  double next_sample = sc.output.series_dt;
+  bool stop = false;
+  for (int si = 0; si < static_cast<int>(sc.stages.size()) && !stop; ++si) {
+    const Stage& st = sc.stages[si];
+    runner.set_stage(si, st.damping, st.flip.value_or(sc.flip));
+    t_stage_end += st.duration;
+    while (t < t_stage_end - 1e-12 * t_stage_end && !stop) {
+      double h = dt;
+      // land on stage ends, samples and frames exactly
+      double next_event = std::min(t_stage_end, next_sample);
+      if (next_out < out_times.size()) next_event = std::min(next_event, t_release + out_times[next_out]);
+      if (t + h > next_event - 1e-9 * h && next_event > t) h = next_event - t;
+      const StepResult r = runner.step(h, sc.adaptive);
+      ++step;
+      if (!r.ok) {
+        Frame bad;
+        runner.frame(bad, false);
+        const long n = bad.n, p = r.particle;
+        std::ostringstream os;
+        os << "particle " << p << " at (" << bad.x[p] << ", " << bad.x[n + p];
+        if (bad.dim == 3) os << ", " << bad.x[2 * n + p];
+        os << ") m: bad " << status_field(r.status) << " at step " << step << " (t = " << t + h << " s, stage '"
+           << stage_name(sc, si) << "'); the last good frame (t = " << last_good_t << " s) was written";
+        sum.ok = false;
+        sum.message = os.str();
+        write_frame(last_good, last_good_t, "_last_good");
+        stop = true;
+        break;
+      }
+      t += h;
+      if (sc.adaptive) dt = std::min(r.dt_limit, sc.dt);  // adaptive: the scene's dt is the largest step
+      if (t >= next_sample - 1e-12) {
+        sample(t, si);
+        next_sample += sc.output.series_dt;
+      }
+      if (next_out < out_times.size() && t >= t_release + out_times[next_out] - 1e-12) {
+        if (sum.series.back().t != t) sample(t, si);
+        write_frame(full_frame(), t, "");
+        ++next_out;
+      }
+      if (t >= t_stop - 1e-12) stop = true;
+      if (opt.progress && std::chrono::duration<double>(Clock::now() - last_print).count() > 1.0) {
+        last_print = Clock::now();
+        const double w = std::chrono::duration<double>(last_print - wall0).count();
+        const double rate = step / w;
+        const double eta = (t_stop - t) / std::max(t / w, 1e-30);
+        std::fprintf(stderr, "\r  t = %.4f / %.4f s  [%s]  step %ld  %.0f steps/s  ETA %.0f s   ", t, t_stop,
+                     stage_name(sc, si).c_str(), step, rate, eta);
+        std::fflush(stderr);
+      }
+    }
+    if (!sum.ok) break;
+    if (sum.series.back().t != t) sample(t, si);
+    const bool stage_frame = si + 1 < static_cast<int>(sc.stages.size()) && sc.output.frames_in_stages;
+    const bool check = si == 0 && sc.stages.size() > 1 && t >= t_stage_end * (1 - 1e-12);
+    if (stage_frame || check) full_frame();
+    if (check) sum.consolidation = check_consolidation(full, su);
+    if (stage_frame) write_frame(full, t, "_" + stage_name(sc, si));
+  }
+  if (opt.progress) std::fprintf(stderr, "\n");
+  if (sum.ok && (pvd.empty() || pvd.back().first != t)) write_frame(full_frame(), t, "_final");
+  sum.steps = step;
+  sum.t_end = t;
+  sum.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
+  sum.times = runner.times();
+  sum.stats = runner.update_stats();
+
+  if (files) {
+    std::ostringstream a;
+    a.precision(8);
+    a << "t,t_flow,stage,runout,height,max_speed,kinetic_energy,mean_T,max_T\n";
+    for (const auto& r : sum.series)
+      a << r.t << ',' << r.t_flow << ',' << r.stage << ',' << r.m.runout << ',' << r.m.height << ',' << r.m.max_speed
+        << ',' << r.m.kinetic_energy << ',' << r.m.mean_T << ',' << r.m.max_T << '\n';
+    write_text(opt.out_dir + "/runout.csv", a.str());
+    std::ostringstream b;
+    b.precision(8);
+    b << "t,t_flow,name,x,y,vx,vy,p,q,eps_pd,T,eta_c,K_col\n";
+    for (const auto& r : sum.tracks)
+      b << r.t << ',' << r.t_flow << ',' << sc.tracks[r.track].name << ',' << r.x << ',' << r.y << ',' << r.vx << ','
+        << r.vy << ',' << r.p << ',' << r.q << ',' << r.eps_pd << ',' << r.T << ',' << r.eta_c << ',' << r.K_col
+        << '\n';
+    write_text(opt.out_dir + "/tracked.csv", b.str());
+    std::ostringstream c;
+    c.precision(8);
+    c << "x,surface_y\n";
+    for (const auto& [x, y] : free_surface(sum.ok ? fr : last_good, su)) c << x << ',' << y << '\n';
+    write_text(opt.out_dir + "/profile_final.csv", c.str());
+  }
+  return sum;
+}
+
+}  // namespace granflow::mpm

@@ -1,0 +1,189 @@
+// Host code shared by the CPU and CUDA runners: packing the set-up into the SoA layout,
+// step parameters, frames with diagnostics. Included by cpu_runner.cpp and cuda_runner.cu.
+#pragma once
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <granflow/mpm/kernels.hpp>
+#include <granflow/mpm/runner.hpp>
+
+namespace granflow::mpm::detail {
+
+template <class Model>
+typename Model::Params model_params(const Material& m) {
+  if constexpr (Model::kCollisional) {
+    return m.params;
+  } else {
+    return m.params.f;
+  }
+}
+
+template <int D, class S>
+GridDesc<D, S> grid_desc(const SceneSetup& su) {
+  GridDesc<D, S> g;
+  for (int d = 0; d < D; ++d) {
+    g.origin[d] = S(su.origin[d]);
+    g.nodes[d] = su.nodes[d];
+  }
+  g.h = S(su.scene.h);
+  g.inv_h = S(1) / g.h;
+  g.n_nodes = su.n_nodes;
+  return g;
+}
+
+template <int D, class S, class Model>
+StepParams<D, S, Model> step_params(const SceneSetup& su) {
+  StepParams<D, S, Model> sp;
+  sp.grid = grid_desc<D, S>(su);
+  sp.mp = model_params<Model>(su.scene.material);
+  sp.rho_p = S(su.scene.material.params.c.rho_p);
+  for (int d = 0; d < D; ++d) sp.gravity[d] = S(su.scene.gravity[d]);
+  sp.dt = S(su.scene.dt);
+  sp.flip = S(su.scene.flip);
+  sp.damping = S(0);
+  double mmin = 1e300;
+  for (double m : su.particles.m) mmin = std::min(mmin, m);
+  sp.mass_eps = S(1e-8 * mmin);
+  sp.cfl = S(su.scene.cfl);
+  sp.want_dt_limit = 0;
+  sp.vol_avg = su.scene.volumetric_averaging ? 1 : 0;
+  return sp;
+}
+
+// HostParticles -> field-major buffer of ParticleLayout<D, kColl>.
+template <int D, class S, bool kColl>
+std::vector<S> pack(const HostParticles& hp) {
+  using Lay = ParticleLayout<D, kColl>;
+  const long n = hp.n;
+  std::vector<S> a(static_cast<size_t>(Lay::N) * n);
+  ParticleView<S> pv{a.data(), n};
+  for (long i = 0; i < n; ++i) {
+    for (int d = 0; d < D; ++d) {
+      pv.f(Lay::X + d, i) = S(hp.x[d * n + i]);
+      pv.f(Lay::V + d, i) = S(hp.v[d * n + i]);
+    }
+    pv.f(Lay::M, i) = S(hp.m[i]);
+    for (int c = 0; c < 6; ++c) {
+      pv.f(Lay::SIG + c, i) = S(hp.sig[c * n + i]);
+      pv.f(Lay::SIGF + c, i) = S(hp.sigf[c * n + i]);
+    }
+    for (int c = 0; c < D * D; ++c) pv.f(Lay::L + c, i) = S(hp.L[c * n + i]);
+    pv.f(Lay::EPS, i) = S(hp.eps[i]);
+    pv.f(Lay::E, i) = S(hp.e[i]);
+    if constexpr (kColl) pv.f(Lay::SQT, i) = S(hp.s[i]);
+  }
+  return a;
+}
+
+template <int D, class S, bool kColl>
+void unpack(const std::vector<S>& a, long n, HostParticles& hp) {
+  using Lay = ParticleLayout<D, kColl>;
+  ParticleView<S> pv{const_cast<S*>(a.data()), n};
+  hp.n = n;
+  hp.dim = D;
+  hp.x.resize(D * n); hp.v.resize(D * n); hp.m.resize(n);
+  hp.sig.resize(6 * n); hp.sigf.resize(6 * n); hp.L.resize(D * D * n);
+  hp.eps.resize(n); hp.e.resize(n); hp.s.assign(n, 0.0);
+  for (long i = 0; i < n; ++i) {
+    for (int d = 0; d < D; ++d) {
+      hp.x[d * n + i] = pv.f(Lay::X + d, i);
+      hp.v[d * n + i] = pv.f(Lay::V + d, i);
+    }
+    hp.m[i] = pv.f(Lay::M, i);
+    for (int c = 0; c < 6; ++c) {
+      hp.sig[c * n + i] = pv.f(Lay::SIG + c, i);
+      hp.sigf[c * n + i] = pv.f(Lay::SIGF + c, i);
+    }
+    for (int c = 0; c < D * D; ++c) hp.L[c * n + i] = pv.f(Lay::L + c, i);
+    hp.eps[i] = pv.f(Lay::EPS, i);
+    hp.e[i] = pv.f(Lay::E, i);
+    if constexpr (kColl) hp.s[i] = pv.f(Lay::SQT, i);
+  }
+}
+
+// Output fields from a host copy of the particle buffer. p and q are those of the total
+// stress; eta_c, K_col and T come from Model::diagnostics with D of the last step.
+template <int D, class S, class Model>
+void make_frame(const std::vector<S>& a, long n, const typename Model::Params& mp, Frame& fr, bool diagnostics,
+                const std::vector<long>& subset = {}) {
+  using Lay = ParticleLayout<D, Model::kCollisional>;
+  ParticleView<S> pv{const_cast<S*>(a.data()), n};
+  fr.n = n;
+  fr.dim = D;
+  fr.x.resize(D * n);
+  fr.v.resize(D * n);
+  for (long i = 0; i < n; ++i)
+    for (int d = 0; d < D; ++d) {
+      fr.x[d * n + i] = pv.f(Lay::X + d, i);
+      fr.v[d * n + i] = pv.f(Lay::V + d, i);
+    }
+  fr.T.assign(n, 0.0);
+  if constexpr (Model::kCollisional)
+    for (long i = 0; i < n; ++i) fr.T[i] = pv.f(Lay::SQT, i) * pv.f(Lay::SQT, i);
+  auto point = [&](long i, Diagnostics<S>& dg, Mat3<S>& sig) {
+    const auto st = StateIO<Model>::template load<D>(pv, i);
+    Mat3<S> L = Mat3<S>::Zero();
+    for (int r = 0; r < D; ++r)
+      for (int c = 0; c < D; ++c) L(r, c) = pv.f(Lay::L + r * D + c, i);
+    dg = Model::diagnostics(mp, st, sym(L));
+    sig = load_sym(pv, Lay::SIG, i);
+  };
+  fr.subset.clear();
+  if (!diagnostics) {
+    for (auto* f : {&fr.p, &fr.q, &fr.eps_pd, &fr.eta_c, &fr.K_col, &fr.e, &fr.sxx, &fr.syy, &fr.sxy}) f->clear();
+    for (long i : subset) {
+      Diagnostics<S> dg;
+      Mat3<S> sig;
+      point(i, dg, sig);
+      fr.subset.push_back({mean_pressure(sig), deviatoric_q(sig), dg.eps_pd, dg.T, dg.eta_c, dg.K_col});
+    }
+    return;
+  }
+  for (auto* f : {&fr.p, &fr.q, &fr.eps_pd, &fr.eta_c, &fr.K_col, &fr.e, &fr.sxx, &fr.syy, &fr.sxy})
+    f->assign(n, 0.0);
+  for (long i = 0; i < n; ++i) {
+    Diagnostics<S> dg;
+    Mat3<S> sig;
+    point(i, dg, sig);
+    fr.p[i] = mean_pressure(sig);
+    fr.q[i] = deviatoric_q(sig);
+    fr.eps_pd[i] = dg.eps_pd;
+    fr.T[i] = dg.T;
+    fr.eta_c[i] = dg.eta_c;
+    fr.K_col[i] = dg.K_col;
+    fr.e[i] = dg.e;
+    fr.sxx[i] = sig(0, 0);
+    fr.syy[i] = sig(1, 1);
+    fr.sxy[i] = sig(0, 1);
+  }
+}
+
+// Dispatch of the compile-time choices a scene selects. F is a template functor
+// F::template run<D, Model, Shape, kBoundary>(setup).
+template <class S, class F>
+auto dispatch(const SceneSetup& su, F&& f) {
+  using PT = PhaseTransitionModel<S>;
+  using FR = FrictionalModel<S>;
+  const Scene& sc = su.scene;
+  const bool pt = sc.material.model == ModelKind::PhaseTransition;
+  const bool quad = sc.shape == ShapeKind::QuadraticBSpline;
+  const bool bnd = su.has_boundary;
+#define GF_MPM_CASE(DIM)                                                                   \
+  if (pt && quad && bnd) return f.template run<DIM, PT, QuadraticShape, true>(su);       \
+  if (pt && quad) return f.template run<DIM, PT, QuadraticShape, false>(su);             \
+  if (pt && bnd) return f.template run<DIM, PT, LinearShape, true>(su);                  \
+  if (pt) return f.template run<DIM, PT, LinearShape, false>(su);                        \
+  if (quad && bnd) return f.template run<DIM, FR, QuadraticShape, true>(su);             \
+  if (quad) return f.template run<DIM, FR, QuadraticShape, false>(su);                   \
+  if (bnd) return f.template run<DIM, FR, LinearShape, true>(su);                        \
+  return f.template run<DIM, FR, LinearShape, false>(su);
+  if (sc.dim == 3) {
+    GF_MPM_CASE(3)
+  }
+  GF_MPM_CASE(2)
+#undef GF_MPM_CASE
+}
+
+}  // namespace granflow::mpm::detail

@@ -1,0 +1,359 @@
+// Scene -> set-up: particle seeding, initial stress, node masks, consistency checks.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <sstream>
+
+#include <granflow/mpm/runner.hpp>
+
+namespace granflow::mpm {
+namespace {
+
+constexpr int kPad = 3;  // grid cells added around the scene box (walls sit inside the grid)
+
+[[noreturn]] void fail(const std::string& key, const std::string& msg) { throw SceneError(key + ": " + msg); }
+
+bool inside_polygon(const std::vector<double>& px, const std::vector<double>& py, double x, double y) {
+  bool in = false;
+  for (size_t i = 0, j = px.size() - 1; i < px.size(); j = i++) {
+    if ((py[i] > y) != (py[j] > y) && x < (px[j] - px[i]) * (y - py[i]) / (py[j] - py[i]) + px[i]) in = !in;
+  }
+  return in;
+}
+
+double polyline(const std::vector<double>& xs, const std::vector<double>& ys, double x) {
+  if (x <= xs.front()) return ys.front();
+  if (x >= xs.back()) return ys.back();
+  for (size_t i = 1; i < xs.size(); ++i)
+    if (x <= xs[i]) return ys[i - 1] + (ys[i] - ys[i - 1]) * (x - xs[i - 1]) / (xs[i] - xs[i - 1]);
+  return ys.back();
+}
+
+std::string fmt(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+}  // namespace
+
+SceneSetup make_setup(const Scene& sc) {
+  SceneSetup su;
+  su.scene = sc;
+  const int D = sc.dim;
+  if (D != 2 && D != 3) fail("grid.dim", "must be 2 or 3");
+  if (!(sc.h > 0)) fail("grid.h", "must be positive");
+  if (sc.ppc_axis < 1) fail("particles.per_cell", "must be at least 1");
+  if (sc.stages.empty()) fail("stage", "at least one [[stage]] is required");
+  if (static_cast<int>(sc.gravity.size()) != D) fail("gravity", "needs " + std::to_string(D) + " components");
+  const double l = sc.h / sc.ppc_axis;
+  su.spacing = l;
+
+  // Grid, padded by kPad cells on every side.
+  su.origin.resize(D);
+  su.nodes.resize(D);
+  su.n_nodes = 1;
+  for (int d = 0; d < D; ++d) {
+    const double cells = sc.size[d] / sc.h;
+    if (std::fabs(cells - std::round(cells)) > 1e-6)
+      fail("grid.size", "each extent must be a whole number of cells of grid.h = " + fmt(sc.h));
+    su.origin[d] = sc.origin[d] - kPad * sc.h;
+    su.nodes[d] = static_cast<int>(std::lround(cells)) + 1 + 2 * kPad;
+    su.n_nodes *= su.nodes[d];
+  }
+  if (su.n_nodes > 400'000'000L) fail("grid.h", "grid of " + std::to_string(su.n_nodes) + " nodes is too large");
+
+  // Particles on a lattice of spacing h / ppc_axis, aligned with each body's lower corner.
+  const Material& mat = sc.material;
+  const double rho0 = mat.params.c.rho_p / (1.0 + mat.e0);
+  std::vector<std::vector<double>> pos(D);
+  for (size_t b = 0; b < sc.bodies.size(); ++b) {
+    const Body& body = sc.bodies[b];
+    const std::string key = "body[" + std::to_string(b) + "]";
+    std::vector<double> lo(D), hi(D);
+    if (body.is_polygon()) {
+      if (D != 2) fail(key + ".polygon_x", "polygons are 2D only");
+      lo = {*std::min_element(body.poly_x.begin(), body.poly_x.end()),
+            *std::min_element(body.poly_y.begin(), body.poly_y.end())};
+      hi = {*std::max_element(body.poly_x.begin(), body.poly_x.end()),
+            *std::max_element(body.poly_y.begin(), body.poly_y.end())};
+    } else {
+      lo = body.box_min;
+      hi = body.box_max;
+    }
+    for (int d = 0; d < D; ++d) {
+      if (!(hi[d] > lo[d])) fail(key, "is empty along axis " + std::to_string(d));
+      if (lo[d] < sc.origin[d] - 1e-12 || hi[d] > sc.origin[d] + sc.size[d] + 1e-12)
+        fail(key, "material [" + fmt(lo[d]) + ", " + fmt(hi[d]) + "] along axis " + std::to_string(d) +
+                      " lies outside the grid [" + fmt(sc.origin[d]) + ", " + fmt(sc.origin[d] + sc.size[d]) +
+                      "] (grid.origin, grid.size)");
+    }
+    std::vector<long> cnt(D);
+    long total = 1;
+    for (int d = 0; d < D; ++d) {
+      cnt[d] = static_cast<long>(std::floor((hi[d] - lo[d]) / l + 1e-9));
+      total *= cnt[d];
+    }
+    for (long k = 0; k < total; ++k) {
+      long kk = k;
+      double x[3];
+      for (int d = 0; d < D; ++d) {
+        x[d] = lo[d] + (kk % cnt[d] + 0.5) * l;
+        kk /= cnt[d];
+      }
+      if (body.is_polygon() && !inside_polygon(body.poly_x, body.poly_y, x[0], x[1])) continue;
+      for (int d = 0; d < D; ++d) pos[d].push_back(x[d]);
+    }
+  }
+  const long n = static_cast<long>(pos[0].size());
+  if (n == 0) fail("body", "no material point was seeded");
+
+  // Material must not start inside a held region.
+  for (long i = 0; i < n; ++i) {
+    for (const Wall& w : sc.walls) {
+      const double x = pos[w.axis][i];
+      if (w.at_max ? x >= w.position : x <= w.position)
+        fail(w.key, "material point at " + fmt(pos[0][i]) + ", " + fmt(pos[1][i]) + " lies beyond this wall");
+    }
+    if (sc.base && pos[1][i] <= polyline(sc.base->x, sc.base->y, pos[0][i]))
+      fail("boundary.base", "material point at " + fmt(pos[0][i]) + ", " + fmt(pos[1][i]) + " lies below the base");
+  }
+
+  HostParticles& hp = su.particles;
+  hp.n = n;
+  hp.dim = D;
+  hp.x.resize(D * n);
+  for (int d = 0; d < D; ++d) std::copy(pos[d].begin(), pos[d].end(), hp.x.begin() + d * n);
+  hp.v.assign(D * n, 0.0);
+  hp.m.assign(n, rho0 * std::pow(l, D));
+  hp.sig.assign(6 * n, 0.0);
+  hp.sigf.assign(6 * n, 0.0);
+  hp.L.assign(D * D * n, 0.0);
+  hp.eps.assign(n, 0.0);
+  hp.e.assign(n, mat.e0);
+  hp.s.assign(n, std::sqrt(mat.T0));
+
+  const FrictionalParams<double>& fp = mat.params.f;
+  const double g = std::sqrt(std::inner_product(sc.gravity.begin(), sc.gravity.end(), sc.gravity.begin(), 0.0));
+  const double K0 = sc.initial.K0 >= 0 ? sc.initial.K0 : 1.0 - std::sin(fp.phi_c);
+  double depth_max = 0;
+  {
+    // Free surface above each lattice column: highest particle plus half a spacing.
+    std::map<long, double> top;
+    for (long i = 0; i < n; ++i) {
+      long key = std::lround(hp.x[i] / l * 2);
+      if (D == 3) key = key * 1000003L + std::lround(hp.x[2 * n + i] / l * 2);
+      auto it = top.find(key);
+      const double y = hp.x[n + i];
+      if (it == top.end()) top[key] = y; else it->second = std::max(it->second, y);
+    }
+    for (long i = 0; i < n; ++i) {
+      long key = std::lround(hp.x[i] / l * 2);
+      if (D == 3) key = key * 1000003L + std::lround(hp.x[2 * n + i] / l * 2);
+      const double depth = top[key] + 0.5 * l - hp.x[n + i];
+      depth_max = std::max(depth_max, depth);
+      if (!sc.initial.geostatic) continue;
+      const double sv = -rho0 * g * depth;
+      Mat3<double> s = Mat3<double>::Zero();
+      s(0, 0) = s(2, 2) = K0 * sv;
+      s(1, 1) = sv;
+      const double eps0 = initial_plastic_strain<LodeShape::SmoothMohrCoulomb>(fp, s, mat.e0);
+      if (!(eps0 >= 0))
+        fail("initial.K0", "the geostatic state with K0 = " + fmt(K0) + " lies outside the yield surface");
+      const double v6[6] = {s(0, 0), s(1, 1), s(2, 2), 0, 0, 0};
+      for (int c = 0; c < 6; ++c) hp.sig[c * n + i] = hp.sigf[c * n + i] = v6[c];
+      hp.eps[i] = eps0;
+    }
+  }
+
+  // Stability of a fixed step: P-wave speed at the deepest point of the at-rest column.
+  {
+    const double p = std::max(rho0 * g * depth_max * (1 + 2 * K0) / 3, fp.p_min);
+    const ElasticModuli<double> c = elastic_moduli(fp, p, mat.e0);
+    const double wave = std::sqrt((c.K + 4.0 / 3.0 * c.G) / rho0);
+    const double limit = sc.h / wave;
+    su.dt_estimate = limit;
+    if (!sc.adaptive && sc.dt > limit)
+      fail("time.dt", fmt(sc.dt) + " s is above the stability limit h / c_p = " + fmt(limit) +
+                          " s (P-wave speed " + fmt(wave) + " m/s at the base of the consolidated material)");
+  }
+
+  // Node masks per stage.
+  for (const Wall& w : sc.walls)
+    for (const Wall& o : sc.walls)
+      if (w.axis == o.axis && !w.at_max && o.at_max && !(w.position < o.position))
+        fail(o.key, "this wall and " + w.key + " leave no room between them");
+  su.has_boundary = !sc.walls.empty() || sc.base.has_value();
+  for (const Stage& st : sc.stages) su.has_boundary = su.has_boundary || st.gate.has_value();
+  const double tol = 1e-9 * sc.h;
+  for (size_t si = 0; si < sc.stages.size(); ++si) {
+    const Stage& st = sc.stages[si];
+    int gate_axis = -1;
+    if (st.gate) {
+      int nz = 0;
+      for (int d = 0; d < D; ++d)
+        if (st.gate->normal[d] != 0) { ++nz; gate_axis = d; }
+      if (nz == 0) fail("stage[" + std::to_string(si) + "].gate.normal", "must not be zero");
+      if (st.gate->normal_only && nz != 1)
+        fail("stage[" + std::to_string(si) + "].gate.hold",
+             "\"normal\" needs an axis-aligned normal; use \"all\" for an inclined gate");
+    }
+    std::vector<std::uint8_t> mask;
+    if (su.has_boundary) {
+      mask.assign(su.n_nodes, 0);
+      const std::uint8_t all = static_cast<std::uint8_t>((1u << D) - 1);
+      for (long k = 0; k < su.n_nodes; ++k) {
+        long kk = k;
+        double x[3];
+        for (int d = 0; d < D; ++d) {
+          x[d] = su.origin[d] + (kk % su.nodes[d]) * sc.h;
+          kk /= su.nodes[d];
+        }
+        std::uint8_t m = 0;
+        for (const Wall& w : sc.walls) {
+          const bool beyond = w.at_max ? x[w.axis] >= w.position - tol : x[w.axis] <= w.position + tol;
+          if (beyond) m |= w.no_slip ? all : static_cast<std::uint8_t>(1u << w.axis);
+        }
+        if (sc.base && x[1] <= polyline(sc.base->x, sc.base->y, x[0]) + tol) m |= all;
+        if (st.gate) {
+          double s = 0;
+          for (int d = 0; d < D; ++d) s += (x[d] - st.gate->point[d]) * st.gate->normal[d];
+          if (s >= -tol) m |= st.gate->normal_only ? static_cast<std::uint8_t>(1u << gate_axis) : all;
+        }
+        mask[k] = m;
+      }
+    }
+    su.stage_masks.push_back(std::move(mask));
+  }
+
+  // Tracked particles: nearest to the requested points.
+  for (const Track& t : sc.tracks) {
+    long best = 0;
+    double bd = std::numeric_limits<double>::max();
+    for (long i = 0; i < n; ++i) {
+      double d2 = 0;
+      for (int d = 0; d < D; ++d) d2 += (hp.x[d * n + i] - t.x[d]) * (hp.x[d * n + i] - t.x[d]);
+      if (d2 < bd) { bd = d2; best = i; }
+    }
+    su.tracked.push_back(best);
+  }
+  return su;
+}
+
+namespace {
+
+void column_collapse_params(Material& m) {  // data/params/column_collapse.toml (Table 3)
+  auto& c = m.params.c;
+  c.rho_p = 2650; c.d = 1.25e-3; c.V_sd = 1.0 / 1.62; c.V_m = 0.4; c.eps_n = 0.6; c.mu_p = 0.2;
+  auto& f = m.params.f;
+  f.K0 = 120; f.nu = 0.2; f.n = 0.5; f.phi_c = 19.8 * M_PI / 180; f.e_ref = 0.977; f.lambda_c = 0.0596;
+  f.xi = 0.365; f.A_d = 0.7; f.k_p = 0.0044; f.n_p = 2.4; f.n_d = 2.9; f.p_at = 101.3e3;
+}
+
+void flume_params(Material& m) {  // data/params/flume.toml (Table 3)
+  auto& c = m.params.c;
+  c.rho_p = 2500; c.d = 1.0e-3; c.V_sd = 1.0 / 1.60; c.V_m = 0.4; c.eps_n = 0.6; c.mu_p = 0.2;
+  auto& f = m.params.f;
+  f.K0 = 130; f.nu = 0.2; f.n = 0.5; f.phi_c = 38.0 * M_PI / 180; f.e_ref = 0.977; f.lambda_c = 0.0596;
+  f.xi = 0.365; f.A_d = 0.4; f.k_p = 0.0044; f.n_p = 2.4; f.n_d = 2.9; f.p_at = 101.3e3;
+}
+
+const char* model_name(ModelKind m) { return m == ModelKind::PhaseTransition ? "phase transition" : "frictional only"; }
+
+}  // namespace
+
+Scene column_scene(double h, double dt, ModelKind model, ShapeKind shape, double collapse_time) {
+  Scene sc;
+  std::ostringstream os;
+  os << "column collapse (" << h * 1e3 << " mm), " << model_name(model);
+  sc.name = os.str();
+  sc.dim = 2;
+  sc.origin = {0.0, 0.0};
+  sc.size = {0.60, std::ceil(0.15 / h - 1e-9) * h};  // whole cells
+  sc.h = h;
+  sc.ppc_axis = 2;
+  sc.shape = shape;
+  sc.gravity = {0.0, -9.81};
+  sc.dt = dt;
+  Material& m = sc.material;
+  m.name = "column_collapse (Table 3, as data/params/column_collapse.toml)";
+  m.model = model;
+  m.e0 = 0.95;
+  m.T0 = 1e-15;
+  column_collapse_params(m);
+  Body b;
+  b.box_min = {0.0, 0.0};
+  b.box_max = {0.2, 0.1};
+  sc.bodies.push_back(b);
+  sc.walls.push_back({0, false, 0.0, false, "wall[0].side"});
+  sc.walls.push_back({0, true, 0.60, false, "wall[1].side"});
+  sc.walls.push_back({1, false, 0.0, true, "wall[2].side"});
+  Stage s1;
+  s1.name = "consolidation";
+  s1.duration = 0.1;
+  s1.damping = 0.5;
+  s1.gate = Gate{{0.2, 0.0}, {1.0, 0.0}, true};
+  Stage s2;
+  s2.name = "collapse";
+  s2.duration = collapse_time;
+  sc.stages = {s1, s2};
+  sc.runout_x = {0.0, 0.6};
+  sc.runout_y = {0.0, 0.0};
+  sc.tracks = {{"A", {0.15, 0.095}}, {"B", {0.10, 0.05}}, {"C", {0.05, 0.01}}};
+  for (double t : {0.05, 0.25, 0.5, 1.0})
+    if (t <= collapse_time) sc.output.times.push_back(t);
+  sc.output.series_dt = h >= 0.005 ? 5e-3 : 1e-3;
+  return sc;
+}
+
+Scene small_column_scene(ModelKind model, ShapeKind shape) { return column_scene(0.01, 5e-5, model, shape, 0.4); }
+
+Scene flume_scene(double h, double dt, ModelKind model, ShapeKind shape, double flow_time) {
+  Scene sc;
+  std::ostringstream os;
+  os << "flume (" << h * 1e3 << " mm), " << model_name(model);
+  sc.name = os.str();
+  const double c45 = std::cos(M_PI / 4);
+  const double H = 2.30 * c45, run = 0.5 * c45, thick = 0.30 / c45;
+  sc.dim = 2;
+  sc.origin = {0.0, 0.0};
+  sc.size = {3.20, std::ceil((H + thick + 0.1) / h - 1e-9) * h};
+  sc.h = h;
+  sc.ppc_axis = 2;
+  sc.shape = shape;
+  sc.gravity = {0.0, -9.81};
+  sc.dt = dt;
+  Material& m = sc.material;
+  m.name = "flume (Table 3, as data/params/flume.toml)";
+  m.model = model;
+  m.e0 = 0.90;
+  m.T0 = 1e-15;
+  flume_params(m);
+  Body b;
+  b.poly_x = {0.0, run, run, 0.0};
+  b.poly_y = {H, H - run, H - run + thick, H + thick};
+  sc.bodies.push_back(b);
+  sc.walls.push_back({0, false, 0.0, false, "wall[0].side"});
+  sc.walls.push_back({0, true, 3.20, false, "wall[1].side"});
+  sc.base = BaseLine{{0.0, H, 3.20}, {H, 0.0, 0.0}};
+  Stage s1;
+  s1.name = "consolidation";
+  s1.duration = 0.1;
+  s1.damping = 0.5;
+  s1.gate = Gate{{run, 0.0}, {1.0, 0.0}, true};
+  Stage s2;
+  s2.name = "flow";
+  s2.duration = flow_time;
+  sc.stages = {s1, s2};
+  sc.runout_x = {0.0, H, 3.20};
+  sc.runout_y = {H, 0.0, 0.0};
+  sc.tracks = {{"A", {0.25, H - 0.25 + thick - 0.02}}, {"B", {0.18, H - 0.18 + thick / 2}}, {"C", {0.02, H + 0.01}}};
+  for (double t : {0.1, 0.4, 0.8, 3.0})
+    if (t <= flow_time) sc.output.times.push_back(t);
+  sc.output.series_dt = 2e-3;
+  return sc;
+}
+
+}  // namespace granflow::mpm

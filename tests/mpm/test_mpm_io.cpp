@@ -1,0 +1,344 @@
+// Outputs read back with an independent little VTU reader, and bad scenes rejected with a
+// message naming the key.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <sstream>
+
+#include <granflow/mpm/driver.hpp>
+
+#include "io/input_error.hpp"
+#include "io/scene.hpp"
+
+using namespace granflow;
+using namespace granflow::mpm;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::vector<unsigned char> unbase64(const std::string& s) {
+  auto val = [](char c) -> int {
+    if (c >= 'A' && c <= 'Z') return c - 'A';
+    if (c >= 'a' && c <= 'z') return c - 'a' + 26;
+    if (c >= '0' && c <= '9') return c - '0' + 52;
+    if (c == '+') return 62;
+    if (c == '/') return 63;
+    return -1;
+  };
+  std::vector<unsigned char> out;
+  unsigned buf = 0;
+  int bits = 0;
+  for (char c : s) {
+    const int v = val(c);
+    if (v < 0) continue;
+    buf = (buf << 6) | v;
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out.push_back(static_cast<unsigned char>((buf >> bits) & 0xff));
+    }
+  }
+  return out;
+}
+
+struct Vtu {
+  long points = -1, cells = -1;
+  std::map<std::string, std::vector<double>> arrays;  // Float64 arrays, decoded
+  std::map<std::string, int> components;
+};
+
+Vtu read_vtu(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string xml = ss.str();
+  Vtu v;
+  std::smatch m;
+  if (std::regex_search(xml, m, std::regex("NumberOfPoints=\"(\\d+)\" NumberOfCells=\"(\\d+)\""))) {
+    v.points = std::stol(m[1]);
+    v.cells = std::stol(m[2]);
+  }
+  const std::regex da("<DataArray type=\"(\\w+)\" Name=\"(\\w+)\" NumberOfComponents=\"(\\d+)\" format=\"(\\w+)\">([^<]*)</DataArray>");
+  for (auto it = std::sregex_iterator(xml.begin(), xml.end(), da); it != std::sregex_iterator(); ++it) {
+    const std::string type = (*it)[1], name = (*it)[2], fmt = (*it)[4], body = (*it)[5];
+    v.components[name] = std::stoi((*it)[3]);
+    if (type != "Float64") {
+      v.arrays[name] = {};
+      continue;
+    }
+    std::vector<double> vals;
+    if (fmt == "ascii") {
+      std::istringstream is(body);
+      double x;
+      while (is >> x) vals.push_back(x);
+    } else {
+      const std::vector<unsigned char> raw = unbase64(body);
+      std::uint32_t bytes = 0;
+      std::memcpy(&bytes, raw.data(), 4);
+      EXPECT_EQ(bytes + 4, raw.size()) << name;
+      vals.resize(bytes / 8);
+      std::memcpy(vals.data(), raw.data() + 4, bytes);
+    }
+    v.arrays[name] = vals;
+  }
+  return v;
+}
+
+std::string write_tmp(const std::string& name, const std::string& text) {
+  const fs::path p = fs::temp_directory_path() / ("granflow_mpm_test_" + name + ".toml");
+  std::ofstream(p) << text;
+  return p.string();
+}
+
+const char* kGood = R"(
+name = "tiny"
+[grid]
+origin = [0.0, 0.0]
+size = [0.4, 0.2]
+h = 0.02
+[particles]
+per_cell = 4
+[time]
+dt = 1e-4
+[material]
+parameters = "column_collapse"
+model = "frictional"
+[[body]]
+min = [0.0, 0.0]
+max = [0.1, 0.1]
+[[wall]]
+side = "x-"
+type = "free_slip"
+[[wall]]
+side = "y-"
+[[stage]]
+duration = 0.002
+[output]
+times = [0.001]
+)";
+
+std::string load_error(const std::string& name, const std::string& text) {
+  try {
+    const Scene sc = io::load_scene(write_tmp(name, text));
+    make_setup(sc);
+  } catch (const io::InputError& e) {
+    return e.what();
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string replace(std::string s, const std::string& a, const std::string& b) {
+  const auto p = s.find(a);
+  EXPECT_NE(p, std::string::npos) << a;
+  return s.replace(p, a.size(), b);
+}
+
+}  // namespace
+
+TEST(MpmIo, VtuReadBackMatchesFrame) {
+  for (const bool binary : {true, false}) {
+    Scene sc = io::load_scene(write_tmp("good", kGood));
+    sc.output.binary = binary;
+    const SceneSetup su = make_setup(sc);
+    auto r = make_cpu_runner(su);
+    const fs::path out = fs::temp_directory_path() / (binary ? "granflow_mpm_vtu_b" : "granflow_mpm_vtu_a");
+    fs::remove_all(out);
+    RunOptions opt;
+    opt.out_dir = out.string();
+    opt.progress = false;
+    const RunSummary s = run(su, *r, opt);
+    ASSERT_TRUE(s.ok) << s.message;
+    Frame f;
+    r->frame(f, true);
+    ASSERT_TRUE(fs::exists(out / "frames.pvd"));
+    for (const char* csv : {"runout.csv", "tracked.csv", "profile_final.csv"}) EXPECT_TRUE(fs::exists(out / csv));
+    std::vector<fs::path> vtus;
+    for (const auto& e : fs::directory_iterator(out)) {
+      EXPECT_NE(e.path().extension(), ".tmp");
+      if (e.path().extension() == ".vtu") vtus.push_back(e.path());
+    }
+    std::sort(vtus.begin(), vtus.end());
+    ASSERT_GE(vtus.size(), 3u);  // t = 0, t = 0.001, final
+    const Vtu v = read_vtu(vtus.back().string());
+    EXPECT_EQ(v.points, f.n);
+    EXPECT_EQ(v.cells, f.n);
+    for (const char* name : {"position", "velocity", "p", "q", "eps_pd", "T", "eta_c", "K_col"})
+      ASSERT_TRUE(v.arrays.count(name)) << name;
+    EXPECT_EQ(v.components.at("position"), 3);
+    ASSERT_EQ(v.arrays.at("position").size(), static_cast<size_t>(3 * f.n));
+    ASSERT_EQ(v.arrays.at("p").size(), static_cast<size_t>(f.n));
+    for (long i = 0; i < f.n; i += 7) {
+      EXPECT_NEAR(v.arrays.at("position")[3 * i + 1], f.x[f.n + i], 1e-9);
+      EXPECT_NEAR(v.arrays.at("p")[i], f.p[i], 1e-9 * (1 + std::fabs(f.p[i])));
+    }
+    // the PVD lists every frame
+    std::ifstream pvd(out / "frames.pvd");
+    std::stringstream ss;
+    ss << pvd.rdbuf();
+    for (const auto& p : vtus) EXPECT_NE(ss.str().find(p.filename().string()), std::string::npos);
+  }
+}
+
+TEST(MpmIo, BadScenesGiveClearErrors) {
+  const std::string good = kGood;
+  EXPECT_EQ(load_error("ok", good), "");
+  const std::pair<std::string, std::string> cases[] = {
+      {replace(good, "h = 0.02", "h = 0.02\nspacing = 3"), "unknown key 'grid.spacing'"},
+      {replace(good, "max = [0.1, 0.1]", "max = [0.1, 0.5]"), "outside the grid"},
+      {replace(good, "dt = 1e-4", "dt = 1e-2"), "time.dt"},
+      {replace(good, "per_cell = 4", "per_cell = 3"), "particles.per_cell"},
+      {replace(good, "model = \"frictional\"", "model = \"viscous\""), "material.model"},
+      {replace(good, "side = \"y-\"", "side = \"x-\""), "contradicts"},
+      {replace(good, "duration = 0.002", "duration = 0.002\n[stage.gate]\npoint = [0.1, 0]\nnormal = [1, 1]"),
+       "stage[0].gate.hold"},
+      {replace(good, "min = [0.0, 0.0]", "min = [0.0]"), "body[0].min"},
+      {replace(good, "times = [0.001]", "times = [0.5]"), "output.times"},
+      {replace(good, "[particles]", "[particle]"), "particle"},
+  };
+  for (const auto& [text, expect] : cases) {
+    const std::string err = load_error("bad", text);
+    EXPECT_NE(err.find(expect), std::string::npos) << "expected '" << expect << "' in: " << err;
+  }
+}
+
+TEST(MpmIo, ParticleLeavingTheGridStopsWithMessageAndLastGoodFrame) {
+  Scene sc = io::load_scene(write_tmp("leave", kGood));
+  sc.walls.clear();  // nothing holds the block: it falls out of the grid
+  sc.stages[0].duration = 0.5;
+  sc.output.times.clear();
+  sc.output.series_dt = 0.01;
+  const SceneSetup su = make_setup(sc);
+  auto r = make_cpu_runner(su);
+  const fs::path out = fs::temp_directory_path() / "granflow_mpm_leave";
+  fs::remove_all(out);
+  RunOptions opt;
+  opt.out_dir = out.string();
+  opt.progress = false;
+  const RunSummary s = run(su, *r, opt);
+  ASSERT_FALSE(s.ok);
+  EXPECT_NE(s.message.find("particle "), std::string::npos) << s.message;
+  EXPECT_NE(s.message.find("position (left the grid)"), std::string::npos) << s.message;
+  EXPECT_NE(s.message.find("at step "), std::string::npos) << s.message;
+  bool last_good = false;
+  for (const auto& e : fs::directory_iterator(out))
+    if (e.path().filename().string().find("_last_good.vtu") != std::string::npos) last_good = true;
+  EXPECT_TRUE(last_good);
+  EXPECT_TRUE(fs::exists(out / "runout.csv"));
+}
+
+namespace {
+
+void expect_same_scene(const Scene& a, const Scene& b) {
+  const double tol = 2e-5;  // the TOML files print the flume geometry with 5 decimals
+  EXPECT_EQ(a.dim, b.dim);
+  for (int d = 0; d < a.dim; ++d) {
+    EXPECT_NEAR(a.origin[d], b.origin[d], tol);
+    EXPECT_NEAR(a.size[d], b.size[d], tol);
+  }
+  EXPECT_DOUBLE_EQ(a.h, b.h);
+  EXPECT_EQ(a.ppc_axis, b.ppc_axis);
+  EXPECT_EQ(a.shape, b.shape);
+  EXPECT_DOUBLE_EQ(a.dt, b.dt);
+  EXPECT_DOUBLE_EQ(a.flip, b.flip);
+  EXPECT_EQ(a.material.model, b.material.model);
+  EXPECT_DOUBLE_EQ(a.material.e0, b.material.e0);
+  EXPECT_DOUBLE_EQ(a.material.T0, b.material.T0);
+  const auto& fa = a.material.params.f;
+  const auto& fb = b.material.params.f;
+  for (auto m : {&FrictionalParams<double>::K0, &FrictionalParams<double>::nu, &FrictionalParams<double>::n,
+                 &FrictionalParams<double>::phi_c, &FrictionalParams<double>::e_ref, &FrictionalParams<double>::lambda_c,
+                 &FrictionalParams<double>::xi, &FrictionalParams<double>::A_d, &FrictionalParams<double>::k_p,
+                 &FrictionalParams<double>::n_p, &FrictionalParams<double>::n_d, &FrictionalParams<double>::p_at})
+    EXPECT_NEAR(fa.*m, fb.*m, 1e-12 * std::fabs(fa.*m));
+  const auto& ca = a.material.params.c;
+  const auto& cb = b.material.params.c;
+  for (auto m : {&CollisionalParams<double>::rho_p, &CollisionalParams<double>::d, &CollisionalParams<double>::V_sd,
+                 &CollisionalParams<double>::V_m, &CollisionalParams<double>::eps_n, &CollisionalParams<double>::mu_p})
+    EXPECT_NEAR(ca.*m, cb.*m, 1e-12 * std::fabs(ca.*m));
+  ASSERT_EQ(a.bodies.size(), b.bodies.size());
+  for (size_t i = 0; i < a.bodies.size(); ++i) {
+    ASSERT_EQ(a.bodies[i].poly_x.size(), b.bodies[i].poly_x.size());
+    for (size_t k = 0; k < a.bodies[i].poly_x.size(); ++k) {
+      EXPECT_NEAR(a.bodies[i].poly_x[k], b.bodies[i].poly_x[k], tol);
+      EXPECT_NEAR(a.bodies[i].poly_y[k], b.bodies[i].poly_y[k], tol);
+    }
+    EXPECT_EQ(a.bodies[i].box_min, b.bodies[i].box_min);
+    EXPECT_EQ(a.bodies[i].box_max, b.bodies[i].box_max);
+  }
+  ASSERT_EQ(a.walls.size(), b.walls.size());
+  for (size_t i = 0; i < a.walls.size(); ++i) {
+    EXPECT_EQ(a.walls[i].axis, b.walls[i].axis);
+    EXPECT_EQ(a.walls[i].at_max, b.walls[i].at_max);
+    EXPECT_NEAR(a.walls[i].position, b.walls[i].position, tol);
+    EXPECT_EQ(a.walls[i].no_slip, b.walls[i].no_slip);
+  }
+  ASSERT_EQ(a.base.has_value(), b.base.has_value());
+  if (a.base)
+    for (size_t k = 0; k < a.base->x.size(); ++k) {
+      EXPECT_NEAR(a.base->x[k], b.base->x[k], tol);
+      EXPECT_NEAR(a.base->y[k], b.base->y[k], tol);
+    }
+  ASSERT_EQ(a.stages.size(), b.stages.size());
+  for (size_t i = 0; i < a.stages.size(); ++i) {
+    EXPECT_DOUBLE_EQ(a.stages[i].duration, b.stages[i].duration);
+    EXPECT_DOUBLE_EQ(a.stages[i].damping, b.stages[i].damping);
+    ASSERT_EQ(a.stages[i].gate.has_value(), b.stages[i].gate.has_value());
+    if (a.stages[i].gate) {
+      EXPECT_NEAR(a.stages[i].gate->point[0], b.stages[i].gate->point[0], tol);
+      EXPECT_EQ(a.stages[i].gate->normal, b.stages[i].gate->normal);
+      EXPECT_EQ(a.stages[i].gate->normal_only, b.stages[i].gate->normal_only);
+    }
+  }
+  ASSERT_EQ(a.runout_x.size(), b.runout_x.size());
+  for (size_t k = 0; k < a.runout_x.size(); ++k) {
+    EXPECT_NEAR(a.runout_x[k], b.runout_x[k], tol);
+    EXPECT_NEAR(a.runout_y[k], b.runout_y[k], tol);
+  }
+  ASSERT_EQ(a.tracks.size(), b.tracks.size());
+  for (size_t k = 0; k < a.tracks.size(); ++k)
+    for (int d = 0; d < a.dim; ++d) EXPECT_NEAR(a.tracks[k].x[d], b.tracks[k].x[d], tol);
+  EXPECT_EQ(a.output.times, b.output.times);
+}
+
+}  // namespace
+
+// The in-code scenes (used where there is no TOML reader, e.g. the GPU machine) describe the
+// same set-ups as the shipped scene files.
+TEST(MpmIo, SceneFilesMatchInCodeScenes) {
+  const std::string dir = std::string(GRANFLOW_SOURCE_DIR) + "/mpm/scenes/";
+  using MK = ModelKind;
+  using SK = ShapeKind;
+  expect_same_scene(io::load_scene(dir + "column_collapse.toml"), column_scene(0.001, 1e-5, MK::PhaseTransition, SK::Linear, 1.0));
+  expect_same_scene(io::load_scene(dir + "column_collapse_frictional.toml"), column_scene(0.001, 1e-5, MK::Frictional, SK::Linear, 1.0));
+  Scene ci = small_column_scene(MK::PhaseTransition);
+  ci.output.times = {0.05, 0.25, 0.4};
+  expect_same_scene(io::load_scene(dir + "column_collapse_ci.toml"), ci);
+  expect_same_scene(io::load_scene(dir + "flume.toml"), flume_scene(0.005, 1e-6, MK::PhaseTransition, SK::Linear, 3.0));
+  expect_same_scene(io::load_scene(dir + "flume_frictional.toml"), flume_scene(0.005, 1e-6, MK::Frictional, SK::Linear, 3.0));
+}
+
+TEST(MpmIo, GeostaticInitialStressLiesOnTheYieldSurface) {
+  const Scene sc = io::load_scene(write_tmp("geo", replace(kGood, "[[body]]", "[initial_stress]\nkind = \"geostatic\"\nK0 = 0.6\n\n[[body]]")));
+  ASSERT_TRUE(sc.initial.geostatic);
+  const SceneSetup su = make_setup(sc);
+  const HostParticles& hp = su.particles;
+  const long n = hp.n;
+  const double rho0 = sc.material.params.c.rho_p / (1 + sc.material.e0);
+  for (long i = 0; i < n; ++i) {
+    const double depth = 0.1 - hp.x[n + i];
+    EXPECT_NEAR(hp.sig[n + i], -rho0 * 9.81 * depth, 1e-9 * rho0 * 9.81);        // sigma_yy
+    EXPECT_NEAR(hp.sig[i], 0.6 * hp.sig[n + i], 1e-12 * rho0);                  // sigma_xx = K0 sigma_yy
+    Mat3<double> s = Mat3<double>::Zero();
+    s(0, 0) = hp.sig[i];
+    s(1, 1) = hp.sig[n + i];
+    s(2, 2) = hp.sig[2 * n + i];
+    EXPECT_GT(hp.eps[i], 0.0);
+    EXPECT_NEAR((yield_function<LodeShape::SmoothMohrCoulomb>(sc.material.params.f, s, hp.eps[i], sc.material.e0)), 0.0, 1e-9);
+  }
+}

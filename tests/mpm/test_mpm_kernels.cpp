@@ -1,0 +1,215 @@
+// Transfer kernels: partition of unity, conservation of mass and momentum in P2G, exact
+// reproduction of a uniform grid velocity in G2P, thread-count independence of the CPU twin.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <random>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include <granflow/mpm/driver.hpp>
+#include <granflow/mpm/kernels.hpp>
+
+using namespace granflow;
+using namespace granflow::mpm;
+
+namespace {
+
+// Small scenes: one thread unless OMP_NUM_THREADS says otherwise (barrier waits dominate).
+const bool kOneThread = [] {
+#ifdef _OPENMP
+  if (!std::getenv("OMP_NUM_THREADS")) omp_set_num_threads(1);
+#endif
+  return true;
+}();
+
+template <class Shape>
+void check_partition_of_unity() {
+  GridDesc<2, double> g{{0.0, 0.0}, 0.1, 10.0, {20, 20}, 400};
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.3, 1.6);
+  for (int t = 0; t < 200; ++t) {
+    P2GParticle<2, double> q{};
+    q.xi[0] = u(rng) * 10;
+    q.xi[1] = u(rng) * 10;
+    q.m = 2.5;
+    q.mv[0] = 1.0;
+    q.mv[1] = -3.0;
+    q.Vsig[0][0] = q.Vsig[1][1] = q.Vsig[0][1] = q.Vsig[1][0] = 1.0;  // V sigma
+    int base[2];
+    ASSERT_TRUE((stencil_base<2, double, Shape>(q.xi, g, base)));
+    double sum[5] = {};
+    for (int a = 0; a < Shape::K; ++a)
+      for (int b = 0; b < Shape::K; ++b) {
+        const int I[2] = {base[0] + a, base[1] + b};
+        double c[5];
+        p2g_contribution<2, double, Shape>(q, I, g.inv_h, c);
+        for (int k = 0; k < 5; ++k) sum[k] += c[k];
+      }
+    EXPECT_NEAR(sum[0], 2.5, 1e-12);   // mass
+    EXPECT_NEAR(sum[1], 1.0, 1e-12);   // momentum
+    EXPECT_NEAR(sum[2], -3.0, 1e-12);
+    EXPECT_NEAR(sum[3], 0.0, 1e-10);   // sum of grad N vanishes: no net internal force
+    EXPECT_NEAR(sum[4], 0.0, 1e-10);
+  }
+}
+
+Scene block_scene(ModelKind model, bool walls) {
+  Scene sc = small_column_scene(model);
+  sc.origin = {0.0, 0.0};
+  sc.size = {0.6, 0.6};
+  sc.bodies[0].box_min = {0.2, 0.3};
+  sc.bodies[0].box_max = {0.3, 0.4};
+  if (!walls) sc.walls.clear();
+  Stage s;
+  s.name = "fall";
+  s.duration = 0.1;
+  sc.stages = {s};
+  sc.tracks.clear();
+  sc.output.times.clear();
+  return sc;
+}
+
+}  // namespace
+
+TEST(MpmKernels, PartitionOfUnityLinear) { check_partition_of_unity<LinearShape>(); }
+TEST(MpmKernels, PartitionOfUnityQuadratic) { check_partition_of_unity<QuadraticShape>(); }
+
+TEST(MpmKernels, P2GConservesMassAndMomentumAndG2PReproducesUniformVelocity) {
+  for (ShapeKind shape : {ShapeKind::Linear, ShapeKind::QuadraticBSpline}) {
+    Scene sc = block_scene(ModelKind::Frictional, false);
+    sc.shape = shape;
+    sc.gravity = {0.0, 0.0};
+    SceneSetup su = make_setup(sc);
+    const long n = su.particles.n;
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(-1, 1);
+    for (long i = 0; i < n; ++i) {  // uniform velocity, jittered positions
+      su.particles.v[i] = 0.7;
+      su.particles.v[n + i] = -0.2;
+      su.particles.x[i] += 0.3 * su.spacing * u(rng);
+      su.particles.x[n + i] += 0.3 * su.spacing * u(rng);
+    }
+    auto r = make_cpu_runner(su);
+    r->set_stage(0, 0.0, 0.0);  // PIC: particle velocity = interpolated grid velocity
+    ASSERT_TRUE(r->step(1e-5, false).ok);
+    Frame f;
+    r->frame(f, false);
+    double px = 0, py = 0, m = 0;
+    for (long i = 0; i < n; ++i) {
+      EXPECT_NEAR(f.v[i], 0.7, 1e-12);
+      EXPECT_NEAR(f.v[n + i], -0.2, 1e-12);
+      px += su.particles.m[i] * f.v[i];
+      py += su.particles.m[i] * f.v[n + i];
+      m += su.particles.m[i];
+    }
+    EXPECT_NEAR(px / m, 0.7, 1e-12);
+    EXPECT_NEAR(py / m, -0.2, 1e-12);
+    HostParticles hp;
+    r->download(hp);
+    for (double L : hp.L) EXPECT_NEAR(L, 0.0, 1e-9);  // no velocity gradient
+  }
+}
+
+TEST(MpmKernels, CpuTwinIsIndependentOfThreadCount) {
+#ifdef _OPENMP
+  for (const bool vol_avg : {false, true}) {
+    Scene sc = small_column_scene(ModelKind::PhaseTransition);
+    sc.volumetric_averaging = vol_avg;
+    const SceneSetup su = make_setup(sc);
+    HostParticles a, b;
+    const int saved = omp_get_max_threads();
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      auto r = make_cpu_runner(su);
+      r->set_stage(1, 0.0, 0.99);  // collapse stage: gate off
+      for (int s = 0; s < 30; ++s) ASSERT_TRUE(r->step(5e-5, false).ok);
+      r->download(threads == 1 ? a : b);
+    }
+    omp_set_num_threads(saved);
+    EXPECT_EQ(a.x, b.x) << "vol_avg " << vol_avg;
+    EXPECT_EQ(a.v, b.v);
+    EXPECT_EQ(a.sig, b.sig);
+    EXPECT_EQ(a.s, b.s);
+  }
+#else
+  GTEST_SKIP() << "built without OpenMP";
+#endif
+}
+
+TEST(MpmKernels, FreeFallingBlockFollowsHalfGTSquared) {
+  Scene sc = block_scene(ModelKind::Frictional, false);
+  sc.dt = 1e-4;
+  sc.stages[0].duration = 0.1;
+  const SceneSetup su = make_setup(sc);
+  EXPECT_FALSE(su.has_boundary);  // no boundary code compiled in
+  auto r = make_cpu_runner(su);
+  RunOptions opt;
+  opt.progress = false;
+  const RunSummary s = run(su, *r, opt);
+  ASSERT_TRUE(s.ok) << s.message;
+  Frame f;
+  r->frame(f, false);
+  const long n = f.n;
+  double y0 = 0, y1 = 0;
+  for (long i = 0; i < n; ++i) {
+    y0 += su.particles.x[n + i] / n;
+    y1 += f.x[n + i] / n;
+  }
+  const double t = 0.1, g = 9.81;
+  // Symplectic Euler: exact drop 1/2 g t^2 + 1/2 g t dt; compare with 1/2 g t^2 within 0.2 %.
+  EXPECT_NEAR(y0 - y1, 0.5 * g * t * t, 2e-3 * 0.5 * g * t * t);
+  EXPECT_NEAR(y0 - y1, 0.5 * g * t * t + 0.5 * g * t * sc.dt, 1e-9);
+}
+
+TEST(MpmKernels, ThreeDimensionalBlockFallsFreelyAndRestsOnAFloor) {
+  // 3D uses the same kernels (dimension template); a free fall and a short rest on a floor.
+  Scene sc = small_column_scene(ModelKind::Frictional, ShapeKind::QuadraticBSpline);
+  sc.dim = 3;
+  sc.origin = {0.0, 0.0, 0.0};
+  sc.size = {0.2, 0.2, 0.2};
+  sc.h = 0.02;
+  sc.gravity = {0.0, -9.81, 0.0};
+  sc.dt = 1e-4;
+  sc.bodies[0].box_min = {0.06, 0.1, 0.06};
+  sc.bodies[0].box_max = {0.14, 0.16, 0.14};
+  sc.walls.clear();
+  Stage s;
+  s.duration = 0.05;
+  sc.stages = {s};
+  sc.tracks.clear();
+  sc.output.times.clear();
+  sc.runout_x.clear();
+  sc.runout_y.clear();
+  const SceneSetup su = make_setup(sc);
+  EXPECT_EQ(su.particles.n, 4L * 3 * 4 * 8);
+  auto r = make_cpu_runner(su);
+  RunOptions opt;
+  opt.progress = false;
+  const RunSummary res = run(su, *r, opt);
+  ASSERT_TRUE(res.ok) << res.message;
+  Frame f;
+  r->frame(f, false);
+  const long n = f.n;
+  double dy = 0;
+  for (long i = 0; i < n; ++i) dy += (su.particles.x[n + i] - f.x[n + i]) / n;
+  EXPECT_NEAR(dy, 0.5 * 9.81 * 0.05 * 0.05 + 0.5 * 9.81 * 0.05 * sc.dt, 1e-9);
+
+  sc.walls.push_back({1, false, 0.1, true, "wall.floor"});  // floor right under the block
+  sc.stages[0].damping = 0.5;
+  const SceneSetup su2 = make_setup(sc);
+  EXPECT_TRUE(su2.has_boundary);
+  auto r2 = make_cpu_runner(su2);
+  const RunSummary res2 = run(su2, *r2, opt);
+  ASSERT_TRUE(res2.ok) << res2.message;
+  Frame f2;
+  r2->frame(f2, true);
+  double ymin = 1;
+  for (long i = 0; i < n; ++i) ymin = std::min(ymin, f2.x[n + i]);
+  EXPECT_GT(ymin, 0.1);  // resting on the floor, not through it
+  double p_mean = 0;
+  for (long i = 0; i < n; ++i) p_mean += f2.p[i] / n;
+  EXPECT_GT(p_mean, 0.0);  // the block carries its weight
+}
