@@ -23,10 +23,11 @@ enum class LodeShape {
 
 // Integration of the frictional law over a strain increment (MODEL.md 3.6, A7).
 enum class StressIntegrator {
+  ImplicitReturn,  // backward-Euler return map in (p, dLambda) at the trial Lode angle: the
+                   // default of every model (MPM and incremental driver): bounded work per point
   Hybrid,          // error-controlled substepping; an increment that exhausts the substep budget
                    // (stiff: 2 G deps >> p near the free surface) is completed by the return map
-  ExplicitSubstep, // substepping only; past the budget, eight uncontrolled steps (flagged)
-  ImplicitReturn   // backward-Euler return map in (p, dLambda) at the trial Lode angle
+  ExplicitSubstep  // substepping only; past the budget, eight uncontrolled steps (flagged)
 };
 
 enum class RestitutionUse {

@@ -592,7 +592,7 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
 // and the material response to d eps = D dt, combined by Strang splitting (half rotation,
 // material increment, half rotation). Rotating the whole step first (Lie splitting) would make
 // the update first order in dt in any loading with spin, such as simple shear.
-template <LodeShape L, StressIntegrator I = StressIntegrator::Hybrid, class S>
+template <LodeShape L, StressIntegrator I = StressIntegrator::ImplicitReturn, class S>
 GF_HDI UpdateInfo frictional_update(const FrictionalParams<S>& mp, FrictionalState<S>& st, const Mat3In<S>& grad_v,
                                     S dt) {
   const Mat3<S> W = skew(grad_v);

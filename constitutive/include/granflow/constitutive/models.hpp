@@ -22,13 +22,15 @@ struct Diagnostics {
   S e = 0;             // void ratio
 };
 
+// K_col = q_c / (q_c + q_f); 0 for a point without deviatoric stress (below 1e-9 Pa, where the
+// ratio would only measure round-off).
 template <class S>
 GF_HDI S collisional_share(S q_c, S q_f) {
   const S sum = q_c + q_f;
-  return sum > S(0) ? q_c / sum : S(0);
+  return sum > S(1e-9) ? q_c / sum : S(0);
 }
 
-template <class S, LodeShape L = LodeShape::SmoothMohrCoulomb, StressIntegrator I = StressIntegrator::Hybrid>
+template <class S, LodeShape L = LodeShape::SmoothMohrCoulomb, StressIntegrator I = StressIntegrator::ImplicitReturn>
 struct FrictionalModel {
   using Scalar = S;
   using Params = FrictionalParams<S>;
@@ -84,7 +86,7 @@ struct PhaseTransitionState {
 };
 
 template <class S, LodeShape L = LodeShape::SmoothMohrCoulomb, RestitutionUse R = RestitutionUse::Everywhere,
-          StressIntegrator I = StressIntegrator::Hybrid>
+          StressIntegrator I = StressIntegrator::ImplicitReturn>
 struct PhaseTransitionModel {
   using Scalar = S;
   using Params = PhaseTransitionParams<S>;

@@ -98,9 +98,9 @@ GF_HDI void store_sym(const ParticleView<S>& pv, int field, long i, const Mat3<S
 template <class Model>
 struct StateIO;
 
-template <class S, LodeShape LS>
-struct StateIO<FrictionalModel<S, LS>> {
-  using State = typename FrictionalModel<S, LS>::State;
+template <class S, LodeShape LS, StressIntegrator I>
+struct StateIO<FrictionalModel<S, LS, I>> {
+  using State = typename FrictionalModel<S, LS, I>::State;
   template <int D>
   using Lay = ParticleLayout<D, false>;
   template <int D>
@@ -119,9 +119,9 @@ struct StateIO<FrictionalModel<S, LS>> {
   }
 };
 
-template <class S, LodeShape LS, RestitutionUse R>
-struct StateIO<PhaseTransitionModel<S, LS, R>> {
-  using State = typename PhaseTransitionModel<S, LS, R>::State;
+template <class S, LodeShape LS, RestitutionUse R, StressIntegrator I>
+struct StateIO<PhaseTransitionModel<S, LS, R, I>> {
+  using State = typename PhaseTransitionModel<S, LS, R, I>::State;
   template <int D>
   using Lay = ParticleLayout<D, true>;
   template <int D>
