@@ -1,5 +1,6 @@
 #include "parameter_set.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -141,11 +142,18 @@ ParameterSet load_parameter_set(const std::string& name_or_path) {
   return parse_parameter_set(root);
 }
 
-void apply_override(ParameterSet& set, const std::string& assignment) {
+ParameterSet parse_parameter_set_text(const std::string& text, const std::string& name) {
+  const toml::table doc = TomlTable::parse_text(text, name);
+  TomlTable root(doc, name);
+  return parse_parameter_set(root);
+}
+
+void apply_override(ParameterSet& set, const std::string& assignment, const std::string& origin) {
+  const std::string who = origin + " '" + assignment + "': ";
   const auto eq = assignment.find('=');
   const auto dot = assignment.find('.');
   if (eq == std::string::npos || dot == std::string::npos || dot > eq)
-    throw InputError("--set '" + assignment + "': expected section.key=value, e.g. frictional.phi_c_deg=31");
+    throw InputError(who + "expected section.key=value, e.g. frictional.phi_c_deg=31");
   const std::string section = assignment.substr(0, dot);
   const std::string key = assignment.substr(dot + 1, eq - dot - 1);
   const std::string value = assignment.substr(eq + 1);
@@ -155,7 +163,7 @@ void apply_override(ParameterSet& set, const std::string& assignment) {
   try {
     doc = toml::parse(std::string_view(text), std::string_view("<override>"));
     auto* tbl = doc[section].as_table();
-    if (!tbl) throw InputError("--set '" + assignment + "': the set has no [" + section + "] table");
+    if (!tbl) throw InputError(who + "the set has no [" + section + "] table");
     const std::string line = "v = " + value;
     toml::table parsed = toml::parse(std::string_view(line), std::string_view("<override>"));
     if (section == "collisional" && (key == "e_sd" || key == "V_sd")) {
@@ -164,10 +172,24 @@ void apply_override(ParameterSet& set, const std::string& assignment) {
     }
     tbl->insert_or_assign(key, *parsed.get("v"));
   } catch (const toml::parse_error& err) {
-    throw InputError("--set '" + assignment + "': " + std::string(err.description()));
+    throw InputError(who + std::string(err.description()));
   }
-  TomlTable root(doc, "--set " + assignment);
-  ParameterSet updated = parse_parameter_set(root);
+  // Positions in the re-serialised text mean nothing to the user: messages name the assignment.
+  const std::string tag = "<override>";
+  TomlTable root(doc, tag);
+  ParameterSet updated;
+  try {
+    updated = parse_parameter_set(root);
+  } catch (const InputError& e) {
+    std::string msg = e.what();
+    if (msg.rfind(tag, 0) == 0) {
+      std::size_t at = tag.size();
+      while (at < msg.size() && (msg[at] == ':' || std::isdigit(static_cast<unsigned char>(msg[at])))) ++at;
+      if (at < msg.size() && msg[at] == ' ') ++at;
+      msg = msg.substr(at);
+    }
+    throw InputError(who + msg);
+  }
   updated.file = set.file;
   set = updated;
 }

@@ -526,6 +526,8 @@ class Driver {
           os.precision(10);
           os << "CVODE failed (" << CVodeGetReturnFlagName(flag) << ") at t = " << t << " s in test '"
              << test_.name << "': " << state_text(x);
+          if (flag == CV_TOO_MUCH_WORK)
+            os << " (more than test.max_steps = " << test_.solver.max_steps << " steps to the next output; raise it or loosen rtol)";
           throw std::runtime_error(os.str());
         }
         if (flag == CV_ROOT_RETURN) {
@@ -592,7 +594,9 @@ class Driver {
         if (sg.t1 - t - h < 1e-9 * dt) h = sg.t1 - t;
         const double r = sg.rate(t + 0.5 * h);
         if (++steps > test_.solver.max_steps)
-          throw std::runtime_error("incremental update: more than max_steps = " + std::to_string(test_.solver.max_steps) + " steps");
+          throw std::runtime_error("incremental update: more than test.max_steps = " +
+                                   std::to_string(test_.solver.max_steps) + " steps, at t = " + std::to_string(t) +
+                                   " s of " + std::to_string(t_end) + " s (raise max_steps or dt)");
         auto try_step = [&](double u, decltype(st)& trial) {
           trial = st;
           const M3 L = velocity_gradient(test_.path, r, u);
@@ -746,7 +750,13 @@ void check_test(const ElementTest& t) {
 
 ResultTable run_element_test(const ElementTest& test, const io::ParameterSet& set, const ProgressCallback& progress) {
   check_test(test);
-  io::check_initial_void_ratio(set, test.initial.e0, "test e0");
+  {
+    // The test's e0 against the set's V_sd: the message names the test file (where e0 is set).
+    io::ParameterSet named = set;
+    if (!test.file.empty()) named.file = test.file;
+    io::check_initial_void_ratio(named, test.initial.e0,
+                                 "'test.e0'" + (set.file.empty() ? std::string() : " (V_sd from " + set.file + ")"));
+  }
   ModelChoice m = test.model;
   if (m == ModelChoice::Auto)
     m = set.has_frictional() && set.has_collisional() ? ModelChoice::PhaseTransition
