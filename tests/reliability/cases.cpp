@@ -131,6 +131,8 @@ std::vector<Case> all_cases() {
       {"test_step_budget", {{"t.toml", kTest + "max_steps = 3\n"}}, kEl, 1, {"CV_TOO_MUCH_WORK", "at t = ", "test.max_steps = 3"}},
       {"test_step_budget_incremental", {{"t.toml", kTest + "solver = \"incremental\"\ndt = 1e-4\nmax_steps = 3\n"}}, kEl, 1, {"incremental update", "test.max_steps = 3", "at t = "}},
 
+      {"run_voids_vanish", {{"t.toml", "params = \"p.toml\"\n[test]\npath = \"isotropic\"\nmodel = \"frictional\"\nrate = 1.0\nduration = 1.0\ne0 = 0.99\n"}}, kEl, 1, {"CVODE failed", "at t = 0.2293", "allowed: 0 < e < 2.97"}},  // ln(1.99)/3
+
       // ---- --set overrides ---------------------------------------------------------------------
       {"set_unknown_key", {}, el_set("frictional.phi_c=31"), kInput, {"--set 'frictional.phi_c=31': unknown key 'frictional.phi_c'", "allowed here", "phi_c_deg"}},
       {"set_no_section", {}, el_set("phi_c_deg=31"), kInput, {"--set 'phi_c_deg=31'", "expected section.key=value"}},
