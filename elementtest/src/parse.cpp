@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "granflow/elementtest/run.hpp"
+#include "test_file_text.hpp"
 #include "io/csv_table.hpp"
 #include "io/toml_reader.hpp"
 
@@ -164,7 +165,14 @@ ElementTest parse_element_test(io::TomlTable& t) {
 }
 
 TestFile load_test_file(const std::string& path) {
-  const toml::table doc = io::TomlTable::parse_file(path);
+  return read_test_file(io::TomlTable::parse_file(path), path);
+}
+
+TestFile parse_test_file_text(const std::string& text, const std::string& path) {
+  return read_test_file(io::TomlTable::parse_text(text, path), path);
+}
+
+TestFile read_test_file(const toml::table& doc, const std::string& path) {
   io::TomlTable root(doc, path);
   TestFile f;
   f.params = root.string_or("params", f.params);
