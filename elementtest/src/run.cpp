@@ -549,7 +549,7 @@ class Driver {
         if (flag < 0) {
           std::ostringstream os;
           os.precision(10);
-          os << "CVODE failed (" << CVodeGetReturnFlagName(flag) << ") at t = " << t << " s in test '"
+          os << "CVODE failed (" << flag_name(flag) << ") at t = " << t << " s in test '"
              << test_.name << "': " << state_text(x);
           if (!rhs_issue_.empty() &&
               (flag == CV_RHSFUNC_FAIL || flag == CV_REPTD_RHSFUNC_ERR || flag == CV_FIRST_RHSFUNC_ERR ||
@@ -590,6 +590,14 @@ class Driver {
       record(out, out_times[k], seg_.rate(t), x, grad_v(x, seg_.rate(t), plastic_));
       ++k;
     }
+  }
+
+  // CVodeGetReturnFlagName returns a malloc'd string the caller must free (leak found by ASan).
+  static std::string flag_name(int flag) {
+    char* name = CVodeGetReturnFlagName(flag);
+    const std::string s = name ? name : "flag " + std::to_string(flag);
+    std::free(name);
+    return s;
   }
 
   static long steps_since_init(void* mem) {
