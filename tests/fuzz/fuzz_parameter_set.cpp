@@ -8,11 +8,13 @@
 #include <string>
 
 #include "io/input_error.hpp"
+#include "toml_known_ub.hpp"
 #include "io/parameter_set.hpp"
 
 using namespace granflow;
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  if (hits_known_toml_ub(data, size)) return 0;  // toml++ 3.3.0 bug, see toml_known_ub.hpp
   const std::string text(reinterpret_cast<const char*>(data), size);
   io::ParameterSet set;
   try {
