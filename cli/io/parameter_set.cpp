@@ -2,6 +2,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <iomanip>
@@ -197,11 +198,22 @@ void apply_override(ParameterSet& set, const std::string& assignment, const std:
 std::string format_parameter_set(const ParameterSet& s) {
   std::ostringstream os;
   os << std::setprecision(17);
+  // A TOML basic string: quote and backslash escaped, control characters as \uXXXX (a name
+  // read from a file may hold them: written raw they made the output unreadable; found by fuzzing).
   auto q = [](const std::string& v) {
     std::string out = "\"";
     for (char c : v) {
-      if (c == '"' || c == '\\') out += '\\';
-      out += c;
+      const auto u = static_cast<unsigned char>(c);
+      if (c == '"' || c == '\\') {
+        out += '\\';
+        out += c;
+      } else if (u < 0x20 || u == 0x7F) {
+        char buf[8];
+        std::snprintf(buf, sizeof buf, "\\u%04X", u);
+        out += buf;
+      } else {
+        out += c;
+      }
     }
     return out + "\"";
   };
