@@ -152,6 +152,7 @@ std::vector<Case> all_cases() {
       {"cli_no_command", {}, {}, 106, {"subcommand"}},
       {"out_exists_without_force", {{"out.csv", "previous result\n"}}, kEl, kInput, {"out.csv", "file exists", "--force"}},
       {"out_directory_missing", {}, {"element", "t.toml", "--out", "no/such/dir/out.csv"}, kInput, {"no/such/dir", "does not exist"}},
+      {"out_failed_run_keeps_old_result", {{"out.csv", "previous result\n"}, {"t.toml", kTest + "max_steps = 3\n"}}, {"element", "t.toml", "--out", "out.csv", "--force"}, 1, {"CV_TOO_MUCH_WORK"}},
       {"out_is_directory", {{"res/x", ""}}, {"element", "t.toml", "--out", "res", "--force"}, kInput, {"res", "is a directory"}},
 
       // ---- rate-programme CSV (programme = "table") ------------------------------------------
