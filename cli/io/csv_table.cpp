@@ -4,6 +4,8 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -141,7 +143,7 @@ CsvColumns read_csv_columns(const std::string& path, const std::vector<std::stri
   check_regular_file(path);
   {
     std::ifstream probe(path);
-    if (!probe) throw InputError(where(path) + "cannot open file");
+    if (!probe) throw InputError(where(path) + "cannot open file (" + std::strerror(errno) + ")");
   }
   return dispatch<1>(path, nullptr, names);
 }

@@ -124,14 +124,15 @@ std::string data_directory() {
 }
 
 ParameterSet load_parameter_set(const std::string& name_or_path) {
+  // error_code forms: a name the OS refuses (too long, ...) is "not found", not a filesystem_error.
   std::string path = name_or_path;
-  if (!std::filesystem::exists(path)) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
     const std::string candidate = data_directory() + "/params/" + name_or_path + ".toml";
-    if (std::filesystem::exists(candidate)) {
+    if (std::filesystem::exists(candidate, ec)) {
       path = candidate;
     } else {
       std::string known;
-      std::error_code ec;
       for (const auto& e : std::filesystem::directory_iterator(data_directory() + "/params", ec))
         if (e.path().extension() == ".toml") known += (known.empty() ? "" : ", ") + e.path().stem().string();
       throw InputError(where(name_or_path) + "no such file, and no parameter set of that name" +

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -48,7 +50,7 @@ toml::table TomlTable::parse_file(const std::string& path) {
   if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
     throw InputError(where(path) + "not a regular file (a TOML file is expected here)");
   std::ifstream in(path);
-  if (!in) throw InputError(where(path) + "cannot open file");
+  if (!in) throw InputError(where(path) + "cannot open file (" + std::strerror(errno) + ")");
   std::ostringstream text;
   text << in.rdbuf();
   return parse_text(text.str(), path);

@@ -80,7 +80,8 @@ ElementTest parse_element_test(io::TomlTable& t) {
     g.kind = ProgrammeKind::Table;
     if (!has_file) t.fail("rate_file", "required key is missing for programme 'table' (CSV with columns time,rate)");
     std::filesystem::path p(rate_file);
-    if (p.is_relative() && !std::filesystem::exists(p))
+    std::error_code ec;  // a name the OS refuses (too long, ...) is an input error further on, not a throw here
+    if (p.is_relative() && !std::filesystem::exists(p, ec))
       p = std::filesystem::path(t.file()).parent_path() / p;
     g.table_file = p.string();
     const io::CsvColumns c = io::read_csv_columns(g.table_file, {"time", "rate"});

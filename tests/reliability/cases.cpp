@@ -103,6 +103,7 @@ std::vector<Case> all_cases() {
       {"param_empty_file", {{"p.toml", ""}}, kEl, kInput, {"p.toml", "needs a [frictional] or a [collisional] table"}},
       {"param_binary_garbage", {{"p.toml", std::string("\x7f" "ELF\x02\x01\x01\0\0\0", 10)}}, kEl, kInput, {"p.toml:1", "TOML syntax error"}},
       {"param_no_such_set", {}, {"element", "t.toml", "--params", "elemnt_test", "--out", "out.csv"}, kInput, {"elemnt_test", "no such file", "shipped sets:", "element_test"}},
+      {"param_name_too_long", {}, {"element", "t.toml", "--params", std::string(300, 'p'), "--out", "out.csv"}, kInput, {"pppp: no such file, and no parameter set of that name"}},
       {"param_is_directory", {{"sub/x", ""}}, {"element", "t.toml", "--params", "sub", "--out", "out.csv"}, kInput, {"sub", "not a regular file"}},
       {"param_lambda_negative", {{"p.toml", P("lambda_c = 0.122", "lambda_c = -0.1")}}, kEl, kInput, {"p.toml:15", "'frictional.lambda_c'", ">= 0"}},
 
@@ -127,6 +128,7 @@ std::vector<Case> all_cases() {
       {"test_sweep_min_above_max", {{"t.toml", edit(edit(kTest, "programme = \"constant\"", "programme = \"sweep\"\nrate_min = 10\nrate_max = 1"), "duration = 0.01\n", "")}}, kEl, kInput, {"t.toml", "'test.rate_max'", "must exceed rate_min"}},
       {"test_file_missing", {}, {"element", "nope.toml", "--out", "out.csv"}, kInput, {"nope.toml", "cannot open file"}},
       {"test_file_is_directory", {{"sub/x", ""}}, {"element", "sub", "--out", "out.csv"}, kInput, {"sub", "not a regular file"}},
+      {"test_rate_file_name_too_long", {{"table.toml", edit(kTableTest, "rates.csv", std::string(300, 'r') + ".csv")}}, kTab, kInput, {"rrrr.csv: cannot open file (File name too long)"}},
       {"test_truncated", {{"t.toml", kTest.substr(0, kTest.find("rate = 10") + 6)}}, kEl, kInput, {"t.toml:5", "TOML syntax error"}},
       {"test_step_budget", {{"t.toml", kTest + "max_steps = 3\n"}}, kEl, 1, {"CV_TOO_MUCH_WORK", "at t = ", "test.max_steps = 3"}},
       {"test_step_budget_incremental", {{"t.toml", kTest + "solver = \"incremental\"\ndt = 1e-4\nmax_steps = 3\n"}}, kEl, 1, {"incremental update", "test.max_steps = 3", "at t = "}},
