@@ -44,9 +44,17 @@ CollisionalParams<double> read_collisional(TomlTable& t) {
   c.d = t.number("d", Bounds::positive());
   const bool has_esd = t.has("e_sd"), has_vsd = t.has("V_sd");
   if (has_esd == has_vsd) t.fail(has_esd ? "V_sd" : "e_sd", "give exactly one of e_sd or V_sd");
-  if (has_esd)
-    c.V_sd = 1.0 / (1.0 + t.number("e_sd", Bounds::positive()));
-  else
+  if (has_esd) {
+    const double e_sd = t.number("e_sd", Bounds::positive());
+    c.V_sd = 1.0 / (1.0 + e_sd);
+    // e_sd below ~1e-16 rounds V_sd to 1 (found by fuzzing: the set loaded, but could not be
+    // read back once written with V_sd = 1).
+    if (!(c.V_sd < 1.0)) {
+      std::ostringstream os;
+      os << "gives V_sd = 1/(1 + e_sd) = " << c.V_sd << ", which must be below 1 (e_sd = " << e_sd << " is too small)";
+      t.fail("e_sd", os.str());
+    }
+  } else
     c.V_sd = t.number("V_sd", Bounds::open(0.0, 1.0));
   c.V_m = t.number("V_m", Bounds::open(0.0, 1.0));
   if (!(c.V_m < c.V_sd)) t.fail("V_m", "must be below V_sd = " + std::to_string(c.V_sd));

@@ -90,6 +90,7 @@ std::vector<Case> all_cases() {
       {"param_e0_above_range", {{"p.toml", P("e0 = [0.99, 1.02]", "e0 = [0.99, 3.0]")}}, kEl, kInput, {"p.toml:23", "'initial.e0'", "in (0, 2.97)"}},
       {"param_e0_zero", {{"p.toml", P("e0 = [0.99, 1.02]", "e0 = 0")}}, kEl, kInput, {"p.toml:23", "'initial.e0'", "in (0, 2.97)"}},
       {"param_Vs_above_Vsd", {{"p.toml", P("e0 = [0.99, 1.02]", "e0 = [0.99, 0.5]")}}, kEl, kInput, {"p.toml", "initial.e0", "at or above V_sd", "must exceed e_sd"}},
+      {"param_esd_rounds_Vsd_to_1", {{"p.toml", P("e_sd = 0.92", "e_sd = 5e-324")}}, kEl, kInput, {"p.toml:5", "'collisional.e_sd'", "V_sd = 1/(1 + e_sd) = 1", "below 1"}},
       {"param_Vsd_not_below_1", {{"p.toml", P("e_sd = 0.92", "V_sd = 1.0")}}, kEl, kInput, {"p.toml:5", "'collisional.V_sd'", "in (0, 1)"}},
       {"param_Vm_above_Vsd", {{"p.toml", P("V_m = 0.4", "V_m = 0.6")}}, kEl, kInput, {"p.toml:6", "'collisional.V_m'", "below V_sd"}},
       {"param_both_esd_and_Vsd", {{"p.toml", P("e_sd = 0.92", "e_sd = 0.92\nV_sd = 0.52")}}, kEl, kInput, {"p.toml", "exactly one of e_sd or V_sd"}},

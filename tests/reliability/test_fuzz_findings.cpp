@@ -24,3 +24,19 @@ TEST(FuzzFindings, FormattedSetWithControlCharactersReadsBack) {
   EXPECT_EQ(back.source, s.source);
   EXPECT_EQ(back.collisional->V_sd, s.collisional->V_sd);
 }
+
+// fuzz_parameter_set: e_sd = 5e-324 (> 0, so accepted) gave V_sd = 1/(1 + e_sd) = 1 exactly;
+// the set loaded but, written with V_sd = 1, could not be read back. Now refused at e_sd.
+TEST(FuzzFindings, TinyEsdThatRoundsVsdToOneIsRefused) {
+  std::string text = kCollisional;
+  text.replace(text.find("V_sd = 0.6"), 10, "e_sd = 5e-324");
+  try {
+    io::parse_parameter_set_text(text, "in.toml");
+    FAIL() << "accepted";
+  } catch (const io::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("'collisional.e_sd'"), std::string::npos) << e.what();
+  }
+  text.replace(text.find("e_sd = 5e-324"), 13, "e_sd = 1e-12");  // small but V_sd < 1: fine
+  const io::ParameterSet s = io::parse_parameter_set_text(text, "in.toml");
+  EXPECT_NO_THROW(io::parse_parameter_set_text(io::format_parameter_set(s), "out.toml"));
+}
