@@ -1,5 +1,6 @@
 // Reading element-test files: strict validation with io::TomlTable (unknown keys are errors
 // naming file, line and key).
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <sstream>
@@ -106,8 +107,21 @@ ElementTest parse_element_test(io::TomlTable& t) {
     } else {
       if (!rmin || !rmax) t.fail("rates", "programme 'sweep' needs 'rates' or 'rate_min' and 'rate_max'");
       if (!(*rmax > *rmin)) t.fail("rate_max", "must exceed rate_min");
-      const int n = static_cast<int>(std::ceil(std::log10(*rmax / *rmin) * per_decade - 1e-9));
-      for (int i = 0; i <= n; ++i) g.sweep_rates.push_back(*rmin * std::pow(*rmax / *rmin, double(i) / n));
+      // In logarithms: rate_max / rate_min can overflow (rate_min = 5e-324 gave inf and an
+      // inf -> int conversion, undefined behaviour; found by fuzzing), and at least one step.
+      const double lo = std::log10(*rmin), decades = std::log10(*rmax) - lo;
+      const double steps = std::ceil(decades * per_decade - 1e-9);
+      constexpr double kMaxSweepRates = 100000;
+      if (!(steps <= kMaxSweepRates)) {
+        std::ostringstream os;
+        os << "the sweep from rate_min to rate_max (" << decades << " decades at " << per_decade
+           << " per decade) would need more than " << kMaxSweepRates << " rates";
+        t.fail("rate_max", os.str());
+      }
+      const int n = std::max(1, static_cast<int>(steps));
+      for (int i = 0; i <= n; ++i) g.sweep_rates.push_back(std::pow(10.0, lo + decades * double(i) / n));
+      g.sweep_rates.front() = *rmin;
+      g.sweep_rates.back() = *rmax;
     }
     g.sweep_strain = sweep_strain.value_or(g.sweep_strain);
   }

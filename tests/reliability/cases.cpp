@@ -127,6 +127,7 @@ std::vector<Case> all_cases() {
       {"test_hold_after_duration", {{"t.toml", T("\"constant\"", "\"acceleration\"\nacceleration = 5\nhold = 1")}}, kEl, kInput, {"t.toml", "'test.hold'", "shorter than duration"}},
       {"test_stress_outside_yield", {{"t.toml", kTest + "k0 = 5\n"}}, kEl, kInput, {"t.toml", "outside the yield surface"}},
       {"test_sweep_min_above_max", {{"t.toml", edit(edit(kTest, "programme = \"constant\"", "programme = \"sweep\"\nrate_min = 10\nrate_max = 1"), "duration = 0.01\n", "")}}, kEl, kInput, {"t.toml", "'test.rate_max'", "must exceed rate_min"}},
+      {"test_sweep_too_many_rates", {{"t.toml", edit(edit(kTest, "programme = \"constant\"", "programme = \"sweep\"\nrate_min = 5e-324\nrate_max = 1000\nrates_per_decade = 1000"), "duration = 0.01\n", "")}}, kEl, kInput, {"t.toml", "'test.rate_max'", "would need more than 100000 rates"}},
       {"test_file_missing", {}, {"element", "nope.toml", "--out", "out.csv"}, kInput, {"nope.toml", "cannot open file"}},
       {"test_file_is_directory", {{"sub/x", ""}}, {"element", "sub", "--out", "out.csv"}, kInput, {"sub", "not a regular file"}},
       {"test_rate_file_name_too_long", {{"table.toml", edit(kTableTest, "rates.csv", std::string(300, 'r') + ".csv")}}, kTab, kInput, {"rrrr.csv: cannot open file (File name too long)"}},

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "io/input_error.hpp"
+#include "test_file_text.hpp"
 #include "io/parameter_set.hpp"
 
 using namespace granflow;
@@ -39,4 +40,23 @@ TEST(FuzzFindings, TinyEsdThatRoundsVsdToOneIsRefused) {
   text.replace(text.find("e_sd = 5e-324"), 13, "e_sd = 1e-12");  // small but V_sd < 1: fine
   const io::ParameterSet s = io::parse_parameter_set_text(text, "in.toml");
   EXPECT_NO_THROW(io::parse_parameter_set_text(io::format_parameter_set(s), "out.toml"));
+}
+
+// fuzz_element_test: rate_min = 5e-324, rate_max = 1000 overflowed rate_max / rate_min to inf
+// and converted inf to int (undefined behaviour). Now computed in logarithms, bounded, and a
+// range narrower than one step still gives its two end rates.
+TEST(FuzzFindings, SweepRangeIsComputedInLogarithms) {
+  const std::string head = "[test]\nprogramme = \"sweep\"\n";
+  const auto t = elementtest::parse_test_file_text(head + "rate_min = 1e-300\nrate_max = 1e300\nrates_per_decade = 2\n",
+                                                   "t.toml");
+  ASSERT_EQ(t.test.programme.sweep_rates.size(), 1201u);
+  EXPECT_EQ(t.test.programme.sweep_rates.front(), 1e-300);
+  EXPECT_EQ(t.test.programme.sweep_rates.back(), 1e300);
+  EXPECT_NEAR(t.test.programme.sweep_rates[600], 1.0, 1e-12);
+  const auto narrow = elementtest::parse_test_file_text(head + "rate_min = 1\nrate_max = 1.0000000000000002\n", "t.toml");
+  ASSERT_EQ(narrow.test.programme.sweep_rates.size(), 2u);
+  for (double r : narrow.test.programme.sweep_rates) EXPECT_TRUE(r >= 1.0 && r <= 1.0000000000000002);
+  EXPECT_THROW(elementtest::parse_test_file_text(head + "rate_min = 5e-324\nrate_max = 1000\nrates_per_decade = 1000\n",
+                                                 "t.toml"),
+               io::InputError);
 }
