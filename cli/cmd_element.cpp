@@ -29,19 +29,44 @@ struct ElementOptions {
   bool force = false;
 };
 
+// Checked before a run, so that a bad --out fails at once and not after the run: the folder
+// must exist, the path must not be a folder, and an existing file needs --force.
+void check_output_path(const std::string& path, bool force) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path parent = fs::path(path).parent_path();
+  if (!parent.empty() && !fs::is_directory(parent, ec))
+    throw io::InputError(io::where(path) + "output folder '" + parent.string() +
+                         "' does not exist (create it first; --out takes a file name)");
+  if (fs::is_directory(path, ec))
+    throw io::InputError(io::where(path) + "is a directory; --out takes a file name, e.g. " +
+                         (fs::path(path) / "result.csv").string());
+  if (fs::exists(path, ec) && !force)
+    throw io::InputError(io::where(path) + "file exists; use --force to overwrite it");
+}
+
 // Writes text to path through a temporary name and a rename; refuses to overwrite unless force.
+// On failure the temporary is removed and an existing file at path is left as it was.
 void write_atomically(const std::string& path, const std::string& text, bool force) {
   namespace fs = std::filesystem;
-  if (fs::exists(path) && !force)
-    throw io::InputError(io::where(path) + "file exists; use --force to overwrite it");
+  check_output_path(path, force);
   const std::string tmp = path + ".tmp" + std::to_string(::getpid());
+  std::error_code ec;
   {
     std::ofstream os(tmp);
-    if (!os) throw io::InputError(io::where(tmp) + "cannot write");
+    if (!os) throw io::InputError(io::where(path) + "cannot write (temporary " + tmp + " could not be created)");
     os << text;
-    if (!os) throw io::InputError(io::where(tmp) + "write failed");
+    os.close();
+    if (!os) {
+      fs::remove(tmp, ec);
+      throw io::InputError(io::where(path) + "write failed (disk full?); nothing was written");
+    }
   }
-  fs::rename(tmp, path);
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw io::InputError(io::where(path) + "cannot replace the file: " + ec.message());
+  }
 }
 
 void print_table(const elementtest::ResultTable& r, int rows) {
@@ -72,10 +97,9 @@ void run_element(const ElementOptions& o) {
   }
   if (!o.params.empty()) params = o.params;
   io::ParameterSet set = io::load_parameter_set(params);
-  for (const auto& a : overrides) io::apply_override(set, a);
+  for (const auto& a : overrides) io::apply_override(set, a, o.test_file + ": overrides");
   for (const auto& a : o.overrides) io::apply_override(set, a);
-  if (!o.out.empty() && std::filesystem::exists(o.out) && !o.force)
-    throw io::InputError(io::where(o.out) + "file exists; use --force to overwrite it");
+  if (!o.out.empty()) check_output_path(o.out, o.force);
 
   const auto t0 = std::chrono::steady_clock::now();
   bool shown = false;

@@ -3,7 +3,8 @@
 # CUDA (nvcc) is optional: when /usr/local/cuda/bin/nvcc exists the CUDA targets are built too.
 set -euo pipefail
 packages=(build-essential cmake libeigen3-dev libsundials-dev libnlopt-cxx-dev libgtest-dev libfccp-dev
-          libcli11-dev libtomlplusplus-dev python3 python3-matplotlib)
+          libcli11-dev libtomlplusplus-dev python3 python3-matplotlib
+          clang libclang-rt-dev)  # clang + libFuzzer: scripts/fuzz.sh
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

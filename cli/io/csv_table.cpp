@@ -4,7 +4,11 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <tuple>
 #include <utility>
@@ -22,18 +26,36 @@ template <unsigned N>
 using Reader = ::io::CSVReader<N, ::io::trim_chars<' ', '\t', '\r'>, ::io::double_quote_escape<',', '"'>,
                                ::io::throw_on_overflow, Comment>;
 
-std::string header_of(const std::string& path) {
-  std::ifstream in(path);
+// The CSV's content: a file on disk (text == nullptr) or text in memory named `path`.
+std::string header_of(const std::string& path, const std::string* text) {
+  std::ifstream file;
+  std::istringstream mem;
+  std::istream* in = &mem;
+  if (text) {
+    mem.str(*text);
+  } else {
+    file.open(path);
+    in = &file;
+  }
   std::string line;
-  while (std::getline(in, line))
-    if (!line.empty() && line[0] != '#') return line;
+  while (std::getline(*in, line))
+    if (!line.empty() && line[0] != '#') return line.size() > 200 ? line.substr(0, 200) + "..." : line;
   return "";
 }
 
-[[noreturn]] void rethrow_fccp(const std::string& path, const ::io::error::base& err) {
+std::string list_of(const std::vector<std::string>& names) {
+  std::string s;
+  for (const auto& n : names) s += (s.empty() ? "" : ",") + n;
+  return s;
+}
+
+[[noreturn]] void rethrow_fccp(const std::string& path, const ::io::error::base& err, const std::string* text,
+                               const std::vector<std::string>& names) {
   std::string msg = err.what();
+  if (dynamic_cast<const ::io::error::header_missing*>(&err))
+    msg = "the file is empty: expected a header line naming the columns (" + list_of(names) + ") and data rows";
   if (dynamic_cast<const ::io::error::missing_column_in_header*>(&err)) {
-    const std::string header = header_of(path);
+    const std::string header = header_of(path, text);
     msg += " Header found: '" + header + "'";
     if (header.find(';') != std::string::npos || header.find('\t') != std::string::npos)
       msg += " (the delimiter must be a comma)";
@@ -55,14 +77,22 @@ double parse_cell(const char* cell, const std::string& path, long line, const st
   return v;
 }
 
+template <unsigned N>
+std::unique_ptr<Reader<N>> open_reader(const std::string& path, const std::string* text) {
+  if (text) return std::make_unique<Reader<N>>(path, text->data(), text->data() + text->size());
+  return std::make_unique<Reader<N>>(path);
+}
+
 template <unsigned N, std::size_t... I>
-CsvColumns read_fixed(const std::string& path, const std::vector<std::string>& names, std::index_sequence<I...>) {
+CsvColumns read_fixed(const std::string& path, const std::string* text, const std::vector<std::string>& names,
+                      std::index_sequence<I...>) {
   CsvColumns out;
   out.file = path;
   out.names = names;
   out.columns.assign(N, {});
   try {
-    Reader<N> reader(path);
+    std::unique_ptr<Reader<N>> rp = open_reader<N>(path, text);
+    Reader<N>& reader = *rp;
     reader.read_header(::io::ignore_extra_column, names[I]...);
     std::array<char*, N> cells{};
     while (reader.read_row(std::get<I>(cells)...)) {
@@ -71,20 +101,33 @@ CsvColumns read_fixed(const std::string& path, const std::vector<std::string>& n
       out.lines.push_back(line);
     }
   } catch (const ::io::error::base& err) {
-    rethrow_fccp(path, err);
+    rethrow_fccp(path, err, text, names);
   }
   if (out.lines.empty()) throw InputError(where(path) + "no data rows after the header");
   return out;
 }
 
 template <unsigned N>
-CsvColumns dispatch(const std::string& path, const std::vector<std::string>& names) {
+CsvColumns dispatch(const std::string& path, const std::string* text, const std::vector<std::string>& names) {
   if constexpr (N > 16) {
     throw InputError(where(path) + "at most 16 columns can be read at once");
   } else {
-    if (names.size() == N) return read_fixed<N>(path, names, std::make_index_sequence<N>{});
-    return dispatch<N + 1>(path, names);
+    if (names.size() == N) return read_fixed<N>(path, text, names, std::make_index_sequence<N>{});
+    return dispatch<N + 1>(path, text, names);
   }
+}
+
+void check_names(const std::string& path, const std::vector<std::string>& names) {
+  if (names.empty()) throw InputError(where(path) + "no columns requested");
+  for (std::size_t i = 0; i < names.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (names[i] == names[j]) throw InputError(where(path) + "column '" + names[i] + "' requested twice");
+}
+
+void check_regular_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw InputError(where(path) + "not a regular file (a CSV file is expected here)");
 }
 
 }  // namespace
@@ -96,23 +139,30 @@ const std::vector<double>& CsvColumns::column(const std::string& name) const {
 }
 
 CsvColumns read_csv_columns(const std::string& path, const std::vector<std::string>& names) {
-  if (names.empty()) throw InputError(where(path) + "no columns requested");
+  check_names(path, names);
+  check_regular_file(path);
   {
     std::ifstream probe(path);
-    if (!probe) throw InputError(where(path) + "cannot open file");
+    if (!probe) throw InputError(where(path) + "cannot open file (" + std::strerror(errno) + ")");
   }
-  return dispatch<1>(path, names);
+  return dispatch<1>(path, nullptr, names);
+}
+
+CsvColumns parse_csv_columns(const std::string& text, const std::string& name, const std::vector<std::string>& names) {
+  check_names(name, names);
+  return dispatch<1>(name, &text, names);
 }
 
 std::vector<std::string> read_csv_text_column(const std::string& path, const std::string& name) {
   std::vector<std::string> out;
+  check_regular_file(path);
   try {
     Reader<1> reader(path);
     reader.read_header(::io::ignore_extra_column, name);
     std::string cell;
     while (reader.read_row(cell)) out.push_back(cell);
   } catch (const ::io::error::base& err) {
-    rethrow_fccp(path, err);
+    rethrow_fccp(path, err, nullptr, {name});
   }
   return out;
 }

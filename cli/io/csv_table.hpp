@@ -22,6 +22,9 @@ struct CsvColumns {
 // Reads the named columns (at most 16; other columns are ignored; '#' starts a comment line).
 CsvColumns read_csv_columns(const std::string& path, const std::vector<std::string>& names);
 
+// The same for CSV text held in memory; `name` stands for the file in messages (fuzzing, tests).
+CsvColumns parse_csv_columns(const std::string& text, const std::string& name, const std::vector<std::string>& names);
+
 // Reads one text column (e.g. a label used to split a file into curves).
 std::vector<std::string> read_csv_text_column(const std::string& path, const std::string& name);
 

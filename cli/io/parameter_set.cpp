@@ -1,6 +1,8 @@
 #include "parameter_set.hpp"
 
+#include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <iomanip>
@@ -42,9 +44,17 @@ CollisionalParams<double> read_collisional(TomlTable& t) {
   c.d = t.number("d", Bounds::positive());
   const bool has_esd = t.has("e_sd"), has_vsd = t.has("V_sd");
   if (has_esd == has_vsd) t.fail(has_esd ? "V_sd" : "e_sd", "give exactly one of e_sd or V_sd");
-  if (has_esd)
-    c.V_sd = 1.0 / (1.0 + t.number("e_sd", Bounds::positive()));
-  else
+  if (has_esd) {
+    const double e_sd = t.number("e_sd", Bounds::positive());
+    c.V_sd = 1.0 / (1.0 + e_sd);
+    // e_sd below ~1e-16 rounds V_sd to 1 (found by fuzzing: the set loaded, but could not be
+    // read back once written with V_sd = 1).
+    if (!(c.V_sd < 1.0)) {
+      std::ostringstream os;
+      os << "gives V_sd = 1/(1 + e_sd) = " << c.V_sd << ", which must be below 1 (e_sd = " << e_sd << " is too small)";
+      t.fail("e_sd", os.str());
+    }
+  } else
     c.V_sd = t.number("V_sd", Bounds::open(0.0, 1.0));
   c.V_m = t.number("V_m", Bounds::open(0.0, 1.0));
   if (!(c.V_m < c.V_sd)) t.fail("V_m", "must be below V_sd = " + std::to_string(c.V_sd));
@@ -122,14 +132,15 @@ std::string data_directory() {
 }
 
 ParameterSet load_parameter_set(const std::string& name_or_path) {
+  // error_code forms: a name the OS refuses (too long, ...) is "not found", not a filesystem_error.
   std::string path = name_or_path;
-  if (!std::filesystem::exists(path)) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
     const std::string candidate = data_directory() + "/params/" + name_or_path + ".toml";
-    if (std::filesystem::exists(candidate)) {
+    if (std::filesystem::exists(candidate, ec)) {
       path = candidate;
     } else {
       std::string known;
-      std::error_code ec;
       for (const auto& e : std::filesystem::directory_iterator(data_directory() + "/params", ec))
         if (e.path().extension() == ".toml") known += (known.empty() ? "" : ", ") + e.path().stem().string();
       throw InputError(where(name_or_path) + "no such file, and no parameter set of that name" +
@@ -141,11 +152,18 @@ ParameterSet load_parameter_set(const std::string& name_or_path) {
   return parse_parameter_set(root);
 }
 
-void apply_override(ParameterSet& set, const std::string& assignment) {
+ParameterSet parse_parameter_set_text(const std::string& text, const std::string& name) {
+  const toml::table doc = TomlTable::parse_text(text, name);
+  TomlTable root(doc, name);
+  return parse_parameter_set(root);
+}
+
+void apply_override(ParameterSet& set, const std::string& assignment, const std::string& origin) {
+  const std::string who = origin + " '" + assignment + "': ";
   const auto eq = assignment.find('=');
   const auto dot = assignment.find('.');
   if (eq == std::string::npos || dot == std::string::npos || dot > eq)
-    throw InputError("--set '" + assignment + "': expected section.key=value, e.g. frictional.phi_c_deg=31");
+    throw InputError(who + "expected section.key=value, e.g. frictional.phi_c_deg=31");
   const std::string section = assignment.substr(0, dot);
   const std::string key = assignment.substr(dot + 1, eq - dot - 1);
   const std::string value = assignment.substr(eq + 1);
@@ -155,7 +173,7 @@ void apply_override(ParameterSet& set, const std::string& assignment) {
   try {
     doc = toml::parse(std::string_view(text), std::string_view("<override>"));
     auto* tbl = doc[section].as_table();
-    if (!tbl) throw InputError("--set '" + assignment + "': the set has no [" + section + "] table");
+    if (!tbl) throw InputError(who + "the set has no [" + section + "] table");
     const std::string line = "v = " + value;
     toml::table parsed = toml::parse(std::string_view(line), std::string_view("<override>"));
     if (section == "collisional" && (key == "e_sd" || key == "V_sd")) {
@@ -164,10 +182,24 @@ void apply_override(ParameterSet& set, const std::string& assignment) {
     }
     tbl->insert_or_assign(key, *parsed.get("v"));
   } catch (const toml::parse_error& err) {
-    throw InputError("--set '" + assignment + "': " + std::string(err.description()));
+    throw InputError(who + std::string(err.description()));
   }
-  TomlTable root(doc, "--set " + assignment);
-  ParameterSet updated = parse_parameter_set(root);
+  // Positions in the re-serialised text mean nothing to the user: messages name the assignment.
+  const std::string tag = "<override>";
+  TomlTable root(doc, tag);
+  ParameterSet updated;
+  try {
+    updated = parse_parameter_set(root);
+  } catch (const InputError& e) {
+    std::string msg = e.what();
+    if (msg.rfind(tag, 0) == 0) {
+      std::size_t at = tag.size();
+      while (at < msg.size() && (msg[at] == ':' || std::isdigit(static_cast<unsigned char>(msg[at])))) ++at;
+      if (at < msg.size() && msg[at] == ' ') ++at;
+      msg = msg.substr(at);
+    }
+    throw InputError(who + msg);
+  }
   updated.file = set.file;
   set = updated;
 }
@@ -175,11 +207,22 @@ void apply_override(ParameterSet& set, const std::string& assignment) {
 std::string format_parameter_set(const ParameterSet& s) {
   std::ostringstream os;
   os << std::setprecision(17);
+  // A TOML basic string: quote and backslash escaped, control characters as \uXXXX (a name
+  // read from a file may hold them: written raw they made the output unreadable; found by fuzzing).
   auto q = [](const std::string& v) {
     std::string out = "\"";
     for (char c : v) {
-      if (c == '"' || c == '\\') out += '\\';
-      out += c;
+      const auto u = static_cast<unsigned char>(c);
+      if (c == '"' || c == '\\') {
+        out += '\\';
+        out += c;
+      } else if (u < 0x20 || u == 0x7F) {
+        char buf[8];
+        std::snprintf(buf, sizeof buf, "\\u%04X", u);
+        out += buf;
+      } else {
+        out += c;
+      }
     }
     return out + "\"";
   };

@@ -30,9 +30,12 @@ struct ParameterSet {
 // (e.g. "element_test"). Every value is validated; errors name file, line and key.
 ParameterSet load_parameter_set(const std::string& name_or_path);
 ParameterSet parse_parameter_set(TomlTable& root);
+// Parses the text of a parameter-set file; `name` stands for the file in messages (fuzzing, tests).
+ParameterSet parse_parameter_set_text(const std::string& text, const std::string& name);
 
 // Applies "section.key=value" overrides (e.g. "frictional.phi_c_deg=31") with the same checks.
-void apply_override(ParameterSet& set, const std::string& assignment);
+// `origin` says where the assignment came from in messages ("--set", "test.toml: overrides").
+void apply_override(ParameterSet& set, const std::string& assignment, const std::string& origin = "--set");
 
 // Writes a set in the format load_parameter_set reads (used by calibration).
 std::string format_parameter_set(const ParameterSet& set);

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -43,13 +46,22 @@ TomlTable::TomlTable(const toml::table& table, std::string file, std::string pre
     : table_(&table), file_(std::move(file)), prefix_(std::move(prefix)) {}
 
 toml::table TomlTable::parse_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw InputError(where(path) + "not a regular file (a TOML file is expected here)");
   std::ifstream in(path);
-  if (!in) throw InputError(where(path) + "cannot open file");
+  if (!in) throw InputError(where(path) + "cannot open file (" + std::strerror(errno) + ")");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_text(text.str(), path);
+}
+
+toml::table TomlTable::parse_text(const std::string& text, const std::string& name) {
   try {
-    return toml::parse(in, path);
+    return toml::parse(std::string_view(text), std::string_view(name));
   } catch (const toml::parse_error& err) {
     const auto& b = err.source().begin;
-    throw InputError(where(path, static_cast<long>(b.line), static_cast<long>(b.column)) + "TOML syntax error: " +
+    throw InputError(where(name, static_cast<long>(b.line), static_cast<long>(b.column)) + "TOML syntax error: " +
                      std::string(err.description()));
   }
 }

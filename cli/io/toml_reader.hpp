@@ -34,6 +34,8 @@ class TomlTable {
 
   // Parses a whole file; syntax errors carry the file's line and column.
   static toml::table parse_file(const std::string& path);
+  // Parses TOML text; `name` stands for the file in messages.
+  static toml::table parse_text(const std::string& text, const std::string& name);
 
   bool has(const std::string& key) const;
   double number(const std::string& key, Bounds b = Bounds::any());

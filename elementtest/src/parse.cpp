@@ -1,10 +1,12 @@
 // Reading element-test files: strict validation with io::TomlTable (unknown keys are errors
 // naming file, line and key).
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <sstream>
 
 #include "granflow/elementtest/run.hpp"
+#include "test_file_text.hpp"
 #include "io/csv_table.hpp"
 #include "io/toml_reader.hpp"
 
@@ -79,7 +81,8 @@ ElementTest parse_element_test(io::TomlTable& t) {
     g.kind = ProgrammeKind::Table;
     if (!has_file) t.fail("rate_file", "required key is missing for programme 'table' (CSV with columns time,rate)");
     std::filesystem::path p(rate_file);
-    if (p.is_relative() && !std::filesystem::exists(p))
+    std::error_code ec;  // a name the OS refuses (too long, ...) is an input error further on, not a throw here
+    if (p.is_relative() && !std::filesystem::exists(p, ec))
       p = std::filesystem::path(t.file()).parent_path() / p;
     g.table_file = p.string();
     const io::CsvColumns c = io::read_csv_columns(g.table_file, {"time", "rate"});
@@ -104,8 +107,21 @@ ElementTest parse_element_test(io::TomlTable& t) {
     } else {
       if (!rmin || !rmax) t.fail("rates", "programme 'sweep' needs 'rates' or 'rate_min' and 'rate_max'");
       if (!(*rmax > *rmin)) t.fail("rate_max", "must exceed rate_min");
-      const int n = static_cast<int>(std::ceil(std::log10(*rmax / *rmin) * per_decade - 1e-9));
-      for (int i = 0; i <= n; ++i) g.sweep_rates.push_back(*rmin * std::pow(*rmax / *rmin, double(i) / n));
+      // In logarithms: rate_max / rate_min can overflow (rate_min = 5e-324 gave inf and an
+      // inf -> int conversion, undefined behaviour; found by fuzzing), and at least one step.
+      const double lo = std::log10(*rmin), decades = std::log10(*rmax) - lo;
+      const double steps = std::ceil(decades * per_decade - 1e-9);
+      constexpr double kMaxSweepRates = 100000;
+      if (!(steps <= kMaxSweepRates)) {
+        std::ostringstream os;
+        os << "the sweep from rate_min to rate_max (" << decades << " decades at " << per_decade
+           << " per decade) would need more than " << kMaxSweepRates << " rates";
+        t.fail("rate_max", os.str());
+      }
+      const int n = std::max(1, static_cast<int>(steps));
+      for (int i = 0; i <= n; ++i) g.sweep_rates.push_back(std::pow(10.0, lo + decades * double(i) / n));
+      g.sweep_rates.front() = *rmin;
+      g.sweep_rates.back() = *rmax;
     }
     g.sweep_strain = sweep_strain.value_or(g.sweep_strain);
   }
@@ -164,7 +180,14 @@ ElementTest parse_element_test(io::TomlTable& t) {
 }
 
 TestFile load_test_file(const std::string& path) {
-  const toml::table doc = io::TomlTable::parse_file(path);
+  return read_test_file(io::TomlTable::parse_file(path), path);
+}
+
+TestFile parse_test_file_text(const std::string& text, const std::string& path) {
+  return read_test_file(io::TomlTable::parse_text(text, path), path);
+}
+
+TestFile read_test_file(const toml::table& doc, const std::string& path) {
   io::TomlTable root(doc, path);
   TestFile f;
   f.params = root.string_or("params", f.params);

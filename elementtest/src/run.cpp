@@ -32,6 +32,7 @@
 #include <granflow/constitutive.hpp>
 
 #include "granflow/elementtest/run.hpp"
+#include "guards.hpp"
 
 namespace granflow::elementtest {
 
@@ -176,6 +177,12 @@ std::string state_text(const X& x) {
      << ", T = " << x.s * x.s << " m2/s2, eps_pd = " << x.eps_pd << ", gamma = " << x.gamma;
   return os.str();
 }
+
+// ---- numerical guards (guards.hpp) ------------------------------------------------------------
+std::string inadmissible(const X& x, double p_floor, double s_floor = 0.0) {
+  return detail::inadmissible_state(x.sf, x.eps_pd, x.e, x.s, x.gamma, x.eps_v, x.eps_a, p_floor, s_floor);
+}
+using detail::update_flags_text;
 
 // ---- the driver, one model ------------------------------------------------------------------
 template <class Model>
@@ -340,6 +347,14 @@ class Driver {
                           dg.q_f,   mean_pressure(sc), deviatoric_q(sc), mean_pressure(s), deviatoric_q(s), x.e,
                           x.s * x.s, collisional_share(deviatoric_q(sc), deviatoric_q(sf)), eta, x.eps_pd};
     (void)r;
+    for (int i = 0; i < 22; ++i)
+      if (!std::isfinite(row[i])) {
+        std::ostringstream os;
+        os.precision(10);
+        os << "element test '" << test_.name << "': output '" << out.names[i] << "' = " << row[i]
+           << " is not finite at t = " << t << " s; state: " << state_text(x);
+        throw std::runtime_error(os.str());
+      }
     for (int i = 0; i < 22; ++i) out.columns[i].push_back(row[i]);
   }
 
@@ -367,15 +382,25 @@ class Driver {
     ++self->rhs_evals_;
     const X x = self->unpack(N_VGetArrayPointer(yv));
     double* yd = N_VGetArrayPointer(ydot);
-    if (!(x.e > 0 && x.e < kVoidRatioMax) || !std::isfinite(x.s)) return 1;  // recoverable: smaller step
+    if (!(x.e > 0 && x.e < kVoidRatioMax) || !std::isfinite(x.s)) {  // recoverable: smaller step
+      self->note_rhs_issue(t, "state " + inadmissible(x, -kInf) + "; " + state_text(x));
+      return 1;
+    }
     const double r = self->seg_.rate(t);
     const M3 L = self->grad_v(x, r, self->plastic_);
     X d = self->rates_for(x, L, self->plastic_);
     d.sf /= self->sigma_ref_;
     d.s /= self->s_ref_;
     self->pack_raw(d, yd);
+    static const char* const kRateNames[kN] = {"dsigma_f_xx/dt", "dsigma_f_yy/dt", "dsigma_f_zz/dt", "dsigma_f_xy/dt",
+                                               "dsigma_f_yz/dt", "dsigma_f_xz/dt", "deps_pd/dt",     "de/dt",
+                                               "dsqrt(T)/dt",    "dgamma/dt",      "deps_v/dt",      "deps_a/dt"};
     for (int i = 0; i < kN; ++i)
-      if (!std::isfinite(yd[i])) return 1;
+      if (!std::isfinite(yd[i])) {
+        self->note_rhs_issue(t, std::string("rate ") + kRateNames[i] + " = " + std::to_string(yd[i]) +
+                                    " (non-finite) at " + state_text(x));
+        return 1;
+      }
     return 0;
   }
   void pack_raw(const X& d, double* y) const {
@@ -524,10 +549,17 @@ class Driver {
         if (flag < 0) {
           std::ostringstream os;
           os.precision(10);
-          os << "CVODE failed (" << CVodeGetReturnFlagName(flag) << ") at t = " << t << " s in test '"
+          os << "CVODE failed (" << flag_name(flag) << ") at t = " << t << " s in test '"
              << test_.name << "': " << state_text(x);
+          if (!rhs_issue_.empty() &&
+              (flag == CV_RHSFUNC_FAIL || flag == CV_REPTD_RHSFUNC_ERR || flag == CV_FIRST_RHSFUNC_ERR ||
+               flag == CV_UNREC_RHSFUNC_ERR || flag == CV_CONV_FAILURE || flag == CV_ERR_FAILURE))
+            os << "; last rejected right-hand side: " << rhs_issue_;
+          if (flag == CV_TOO_MUCH_WORK)
+            os << " (more than test.max_steps = " << test_.solver.max_steps << " steps to the next output; raise it or loosen rtol)";
           throw std::runtime_error(os.str());
         }
+        check_state(x, t, "CVODE");
         if (flag == CV_ROOT_RETURN) {
           ++out.stats.events;
           if (out.stats.events > 100000) throw std::runtime_error("element test: more than 100000 switch events (chattering) at t = " + std::to_string(t));
@@ -558,6 +590,14 @@ class Driver {
       record(out, out_times[k], seg_.rate(t), x, grad_v(x, seg_.rate(t), plastic_));
       ++k;
     }
+  }
+
+  // CVodeGetReturnFlagName returns a malloc'd string the caller must free (leak found by ASan).
+  static std::string flag_name(int flag) {
+    char* name = CVodeGetReturnFlagName(flag);
+    const std::string s = name ? name : "flag " + std::to_string(flag);
+    std::free(name);
+    return s;
   }
 
   static long steps_since_init(void* mem) {
@@ -592,7 +632,9 @@ class Driver {
         if (sg.t1 - t - h < 1e-9 * dt) h = sg.t1 - t;
         const double r = sg.rate(t + 0.5 * h);
         if (++steps > test_.solver.max_steps)
-          throw std::runtime_error("incremental update: more than max_steps = " + std::to_string(test_.solver.max_steps) + " steps");
+          throw std::runtime_error("incremental update: more than test.max_steps = " +
+                                   std::to_string(test_.solver.max_steps) + " steps, at t = " + std::to_string(t) +
+                                   " s of " + std::to_string(t_end) + " s (raise max_steps or dt)");
         auto try_step = [&](double u, decltype(st)& trial) {
           trial = st;
           const M3 L = velocity_gradient(test_.path, r, u);
@@ -626,7 +668,7 @@ class Driver {
         if (!inf.ok()) {
           std::ostringstream os;
           os.precision(10);
-          os << "incremental update failed (flags " << inf.flags << ") at t = " << t << " s, dt = " << h
+          os << "incremental update failed (" << update_flags_text(inf.flags) << ") at t = " << t << " s, dt = " << h
              << " in test '" << test_.name << "': " << state_text(x);
           throw std::runtime_error(os.str());
         }
@@ -642,6 +684,7 @@ class Driver {
         x.eps_a += -h * D(1, 1);
         t += h;
         L_last = L;
+        check_state(x, t, "incremental update");
         while (k < out_times.size() && out_times[k] <= t + 1e-12 * dt) {
           // Outputs use D at the output time (the step itself used the midpoint rate, which
           // makes the temperature update second order for a varying rate).
@@ -665,6 +708,26 @@ class Driver {
 
   void reset_mode() { cut_ = false; plastic_ = false; }
 
+  // Throws when x is non-finite or inadmissible, naming the time, the quantity and its value.
+  void check_state(const X& x, double t, const char* solver) const {
+    const double floor = (kF && !cut_) ? -std::max(1e-3 * sigma_ref_, 1e-6) : -kInf;
+    const double s_floor = -10.0 * test_.solver.atol * s_ref_;
+    const std::string issue = inadmissible(x, floor, s_floor);
+    if (issue.empty()) return;
+    std::ostringstream os;
+    os.precision(10);
+    os << "element test '" << test_.name << "': " << solver << " reached an inadmissible state at t = " << t
+       << " s: " << issue << "; state: " << state_text(x);
+    throw std::runtime_error(os.str());
+  }
+
+  void note_rhs_issue(double t, const std::string& what) {
+    std::ostringstream os;
+    os.precision(10);
+    os << "t = " << t << " s: " << what;
+    rhs_issue_ = os.str();
+  }
+
  private:
   const ElementTest& test_;
   const P& p_;
@@ -674,6 +737,7 @@ class Driver {
   bool plastic_ = false;
   bool cut_ = false;
   long rhs_evals_ = 0;
+  std::string rhs_issue_;  // why the right-hand side last returned a recoverable error
 };
 
 std::vector<double> output_times(const OutputSettings& o, double t0, double t1) {
@@ -746,7 +810,13 @@ void check_test(const ElementTest& t) {
 
 ResultTable run_element_test(const ElementTest& test, const io::ParameterSet& set, const ProgressCallback& progress) {
   check_test(test);
-  io::check_initial_void_ratio(set, test.initial.e0, "test e0");
+  {
+    // The test's e0 against the set's V_sd: the message names the test file (where e0 is set).
+    io::ParameterSet named = set;
+    if (!test.file.empty()) named.file = test.file;
+    io::check_initial_void_ratio(named, test.initial.e0,
+                                 "'test.e0'" + (set.file.empty() ? std::string() : " (V_sd from " + set.file + ")"));
+  }
   ModelChoice m = test.model;
   if (m == ModelChoice::Auto)
     m = set.has_frictional() && set.has_collisional() ? ModelChoice::PhaseTransition

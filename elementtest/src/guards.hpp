@@ -1,0 +1,70 @@
+// Numerical guards of the element driver: which quantity of a state is non-finite or
+// inadmissible, said in words with its value and the allowed range (for error messages).
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <sstream>
+#include <string>
+#include <utility>
+
+#include <granflow/constitutive.hpp>
+
+namespace granflow::elementtest::detail {
+
+// The first offending quantity as "name = value (allowed ...)", or "" when the state is
+// admissible. sf: frictional stress [Pa]; s = sqrt(T) [m/s]. `p_floor` [Pa]: how far the
+// frictional mean pressure may fall below the tension cut-off p_f = 0 (events stop it there;
+// far below means the cut-off was missed; -inf: unchecked). `s_floor` [m/s]: integration error
+// allowed on s below 0. Order: e and T first (the usual root cause), then the rest.
+inline std::string inadmissible_state(const Mat3<double>& sf, double eps_pd, double e, double s, double gamma,
+                                      double eps_v, double eps_a, double p_floor, double s_floor = 0.0) {
+  std::ostringstream os;
+  os.precision(10);
+  if (!std::isfinite(e) || !(e > 0 && e < kVoidRatioMax)) {
+    os << "e = " << e << " (allowed: 0 < e < " << kVoidRatioMax << ")";
+    return os.str();
+  }
+  if (!std::isfinite(s)) {
+    os << "T = " << s * s << " m2/s2 (must be finite)";
+    return os.str();
+  }
+  if (s < s_floor) {  // s < 0: a temperature that went through zero
+    os << "T < 0 (sqrt(T) = " << s << " m/s; allowed: T >= 0)";
+    return os.str();
+  }
+  const char* names[6] = {"sigma_f_xx", "sigma_f_yy", "sigma_f_zz", "sigma_f_xy", "sigma_f_yz", "sigma_f_xz"};
+  const double c[6] = {sf(0, 0), sf(1, 1), sf(2, 2), sf(0, 1), sf(1, 2), sf(0, 2)};
+  for (int i = 0; i < 6; ++i)
+    if (!std::isfinite(c[i])) {
+      os << names[i] << " = " << c[i] << " Pa (must be finite)";
+      return os.str();
+    }
+  const std::pair<const char*, double> rest[] = {{"eps_pd", eps_pd}, {"gamma", gamma}, {"eps_v", eps_v}, {"eps_a", eps_a}};
+  for (const auto& [n, v] : rest)
+    if (!std::isfinite(v)) {
+      os << n << " = " << v << " (must be finite)";
+      return os.str();
+    }
+  const double p = mean_pressure(sf);
+  if (p < p_floor) {
+    os << "p_f = " << p << " Pa, far below the tension cut-off p_f = 0 (allowed: p_f >= " << p_floor << " Pa)";
+    return os.str();
+  }
+  return "";
+}
+
+// The error and warning bits of UpdateInfo::flags in words.
+inline std::string update_flags_text(std::uint32_t flags) {
+  std::string s;
+  auto add = [&](std::uint32_t bit, const char* what) {
+    if (flags & bit) s += (s.empty() ? "" : "; ") + std::string(what);
+  };
+  add(info::kNonFinite, "a non-finite value was produced");
+  add(info::kInadmissible, "inadmissible input state (e <= 0, e >= 2.97 or T < 0)");
+  add(info::kSubstepLimit, "substep budget exhausted");
+  add(info::kReturnFallback, "return map failed");
+  return s.empty() ? "flags " + std::to_string(flags) : s;
+}
+
+}  // namespace granflow::elementtest::detail

@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets with clang (-fsanitize=fuzzer,address,undefined) in build-fuzz/
+# and runs each for a bounded time, starting from the committed seed corpus.
+#   scripts/fuzz.sh [SECONDS] [TARGET...]     # default: 60 s each; parameter_set element_test csv
+# Environment:
+#   FUZZ_RUNS=N     stop each target after N executions (SECONDS still caps the time)
+#   FUZZ_WORKERS=N  parallel fuzzing processes per target (libFuzzer -fork=N), default 1
+#   FUZZ_CXX        the clang++ to use (default clang++)
+# csv: fuzz_csv_fast (UBSan only; libfccp's 48 MB buffer makes ASan slow) explores for SECONDS,
+# then every input of its corpus is run once through fuzz_csv (ASan + UBSan).
+# New inputs go to build-fuzz/corpus/<target> (not committed); a crash leaves its input in
+# build-fuzz/artifacts/<target>/ and fails the script. Logs and counts: build-fuzz/fuzz_<t>.log.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+secs=${1:-60}
+[ $# -gt 0 ] && shift
+targets=("$@")
+[ ${#targets[@]} -eq 0 ] && targets=(parameter_set element_test csv)
+jobs=$(nproc 2>/dev/null || echo 2)
+build=()
+for t in "${targets[@]}"; do
+  build+=("fuzz_$t")
+  [ "$t" = csv ] && build+=(fuzz_csv_fast)
+done
+cmake -S . -B build-fuzz -DCMAKE_CXX_COMPILER="${FUZZ_CXX:-clang++}" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+      -DGRANFLOW_FUZZ=ON -DGRANFLOW_CUDA=OFF >/dev/null
+cmake --build build-fuzz -j"$jobs" --target "${build[@]}"
+bin=build-fuzz/tests/fuzz
+status=0
+for t in "${targets[@]}"; do
+  mkdir -p "build-fuzz/corpus/$t" "build-fuzz/artifacts/$t"
+  args=(-max_total_time="$secs" -max_len=4096 -timeout=10 -rss_limit_mb=2048 -print_final_stats=1
+        -artifact_prefix="build-fuzz/artifacts/$t/" -dict="tests/fuzz/$t.dict")
+  [ -n "${FUZZ_RUNS:-}" ] && args+=(-runs="$FUZZ_RUNS")
+  [ "${FUZZ_WORKERS:-1}" -gt 1 ] && args+=(-fork="$FUZZ_WORKERS" -ignore_crashes=0)
+  exe=$bin/fuzz_$t
+  [ "$t" = csv ] && exe=$bin/fuzz_csv_fast
+  echo "== $(basename "$exe"): ${secs} s"
+  log=build-fuzz/fuzz_$t.log
+  if ! "$exe" "${args[@]}" "build-fuzz/corpus/$t" "tests/fuzz/corpus/$t" >"$log" 2>&1; then
+    status=1
+    echo "$(basename "$exe") FAILED; see $log and build-fuzz/artifacts/$t/"
+    grep -E "ERROR|SUMMARY|runtime error" "$log" | head -20 || true
+  fi
+  grep -E "^stat::(number_of_executed_units|average_exec_per_sec|new_units_added|peak_rss_mb)" "$log" ||
+    grep -E "^#[0-9]+" "$log" | tail -1 || true
+  if [ "$t" = csv ]; then  # the whole corpus once more under ASan
+    echo "== fuzz_csv (ASan): replaying the corpus"
+    if ! "$bin/fuzz_csv" -runs=0 -artifact_prefix="build-fuzz/artifacts/$t/" "build-fuzz/corpus/$t" \
+         "tests/fuzz/corpus/$t" >"build-fuzz/fuzz_csv_asan.log" 2>&1; then
+      status=1
+      echo "fuzz_csv (ASan) FAILED on a corpus input; see build-fuzz/fuzz_csv_asan.log"
+      grep -E "ERROR|SUMMARY|runtime error" build-fuzz/fuzz_csv_asan.log | head -20 || true
+    fi
+    grep -E "INITED|DONE" build-fuzz/fuzz_csv_asan.log | tail -1 || true
+  fi
+done
+exit $status

@@ -1,0 +1,195 @@
+// The bad inputs, one line each. Every case starts from default_files() (a good parameter set
+// p.toml, a good element test t.toml, a good rate table and lab CSV) and changes one thing.
+// To add a case for a new command: one line {name, {files}, {argv}, exit code, {substrings}};
+// e.g. {"calib_unknown_key", {{"job.toml", "..."}}, {"calibrate", "job.toml"}, 2, {"job.toml:3", "..."}}.
+#include "harness.hpp"
+
+namespace reliability {
+
+namespace {
+
+// Line numbers below refer to these texts.
+const std::string kParams =
+    "name = \"reliability base set\"\n"  // 1
+    "[collisional]\n"                    // 2
+    "rho_p = 1050\n"                     // 3
+    "d = 1.0e-3\n"                       // 4
+    "e_sd = 0.92\n"                      // 5
+    "V_m = 0.4\n"                        // 6
+    "eps_n = 0.7\n"                      // 7
+    "mu_p = 0.1\n"                       // 8
+    "[frictional]\n"                     // 9
+    "K0 = 120\n"                         // 10
+    "nu = 0.235\n"                       // 11
+    "n = 0.5\n"                          // 12
+    "phi_c_deg = 23\n"                   // 13
+    "e_ref = 0.910\n"                    // 14
+    "lambda_c = 0.122\n"                 // 15
+    "xi = 0.71\n"                        // 16
+    "A_d = 0.5\n"                        // 17
+    "k_p = 0.001\n"                      // 18
+    "n_p = 1\n"                          // 19
+    "n_d = 1\n"                          // 20
+    "p_at = 101.3e3\n"                   // 21
+    "[initial]\n"                        // 22
+    "e0 = [0.99, 1.02]\n"                // 23
+    "T0 = 1.0e-15\n";                    // 24
+
+const std::string kTest =
+    "params = \"p.toml\"\n"                   // 1
+    "[test]\n"                                // 2
+    "path = \"undrained_simple_shear\"\n"     // 3
+    "programme = \"constant\"\n"              // 4
+    "rate = 10.0\n"                           // 5
+    "duration = 0.01\n"                       // 6
+    "e0 = 0.99\n"                             // 7
+    "sigma_v0 = 500.0\n"                      // 8
+    "outputs = 3\n";                          // 9
+
+const std::string kTableTest =
+    "params = \"p.toml\"\n"          // 1
+    "[test]\n"                       // 2
+    "programme = \"table\"\n"        // 3
+    "rate_file = \"rates.csv\"\n"    // 4
+    "outputs = 3\n";                 // 5
+
+const std::string kRates = "time,rate\n0,10\n0.005,20\n0.01,20\n";
+const std::string kLab = "# triaxial test\nstrain,q\n0,0\n0.01,120\n0.02,180\n";
+
+// Shorthands.
+std::string P(const std::string& from, const std::string& to) { return edit(kParams, from, to); }
+std::string T(const std::string& from, const std::string& to) { return edit(kTest, from, to); }
+const std::vector<std::string> kEl = {"element", "t.toml", "--out", "out.csv"};
+const std::vector<std::string> kTab = {"element", "table.toml", "--out", "out.csv"};
+std::vector<std::string> el_set(const std::string& a) { return {"element", "t.toml", "--set", a, "--out", "out.csv"}; }
+const std::vector<std::string> kLabArgs = {"@csv", "lab.csv", "strain,q", "strain"};
+constexpr int kInput = 2;  // granflow's exit code for input errors
+
+}  // namespace
+
+Files default_files() {
+  return {{"p.toml", kParams}, {"t.toml", kTest}, {"table.toml", kTableTest}, {"rates.csv", kRates}, {"lab.csv", kLab}};
+}
+
+std::vector<Case> all_cases() {
+  return {
+      // ---- parameter-set TOML ------------------------------------------------------------
+      {"param_typo_missing_key", {{"p.toml", P("phi_c_deg", "phi_c_dg")}}, kEl, kInput, {"p.toml", "'frictional.phi_c_deg'", "required key is missing", "frictional.phi_c_dg", "a typo?"}},
+      {"param_unknown_key", {{"p.toml", P("mu_p = 0.1\n", "mu_p = 0.1\ncolour = 1\n")}}, kEl, kInput, {"p.toml:9", "unknown key 'collisional.colour'", "allowed here"}},
+      {"param_unknown_table", {{"p.toml", P("[initial]", "[inital]")}}, kEl, kInput, {"p.toml:22", "unknown key 'inital'"}},
+      {"param_missing_K0", {{"p.toml", drop_line(kParams, "K0 =")}}, kEl, kInput, {"p.toml", "'frictional.K0'", "required key is missing", "> 0"}},
+      {"param_string_for_number", {{"p.toml", P("rho_p = 1050", "rho_p = \"1050\"")}}, kEl, kInput, {"p.toml:3", "'collisional.rho_p'", "expected a number, got a string"}},
+      {"param_array_for_number", {{"p.toml", P("d = 1.0e-3", "d = [1.0e-3]")}}, kEl, kInput, {"p.toml:4", "'collisional.d'", "expected a number, got an array"}},
+      {"param_nan", {{"p.toml", P("K0 = 120", "K0 = nan")}}, kEl, kInput, {"p.toml:10", "'frictional.K0'", "finite"}},
+      {"param_inf", {{"p.toml", P("rho_p = 1050", "rho_p = inf")}}, kEl, kInput, {"p.toml:3", "'collisional.rho_p'", "finite"}},
+      {"param_negative_density", {{"p.toml", P("rho_p = 1050", "rho_p = -1050")}}, kEl, kInput, {"p.toml:3", "'collisional.rho_p'", "must be > 0", "-1050"}},
+      {"param_negative_diameter", {{"p.toml", P("d = 1.0e-3", "d = -1.0e-3")}}, kEl, kInput, {"p.toml:4", "'collisional.d'", "must be > 0"}},
+      {"param_zero_diameter", {{"p.toml", P("d = 1.0e-3", "d = 0")}}, kEl, kInput, {"p.toml:4", "'collisional.d'", "must be > 0"}},
+      {"param_restitution_above_1", {{"p.toml", P("eps_n = 0.7", "eps_n = 1.2")}}, kEl, kInput, {"p.toml:7", "'collisional.eps_n'", "in [0, 1]"}},
+      {"param_restitution_negative", {{"p.toml", P("eps_n = 0.7", "eps_n = -0.1")}}, kEl, kInput, {"p.toml:7", "'collisional.eps_n'", "in [0, 1]"}},
+      {"param_e0_above_range", {{"p.toml", P("e0 = [0.99, 1.02]", "e0 = [0.99, 3.0]")}}, kEl, kInput, {"p.toml:23", "'initial.e0'", "in (0, 2.97)"}},
+      {"param_e0_zero", {{"p.toml", P("e0 = [0.99, 1.02]", "e0 = 0")}}, kEl, kInput, {"p.toml:23", "'initial.e0'", "in (0, 2.97)"}},
+      {"param_Vs_above_Vsd", {{"p.toml", P("e0 = [0.99, 1.02]", "e0 = [0.99, 0.5]")}}, kEl, kInput, {"p.toml", "initial.e0", "at or above V_sd", "must exceed e_sd"}},
+      {"param_esd_rounds_Vsd_to_1", {{"p.toml", P("e_sd = 0.92", "e_sd = 5e-324")}}, kEl, kInput, {"p.toml:5", "'collisional.e_sd'", "V_sd = 1/(1 + e_sd) = 1", "below 1"}},
+      {"param_Vsd_not_below_1", {{"p.toml", P("e_sd = 0.92", "V_sd = 1.0")}}, kEl, kInput, {"p.toml:5", "'collisional.V_sd'", "in (0, 1)"}},
+      {"param_Vm_above_Vsd", {{"p.toml", P("V_m = 0.4", "V_m = 0.6")}}, kEl, kInput, {"p.toml:6", "'collisional.V_m'", "below V_sd"}},
+      {"param_both_esd_and_Vsd", {{"p.toml", P("e_sd = 0.92", "e_sd = 0.92\nV_sd = 0.52")}}, kEl, kInput, {"p.toml", "exactly one of e_sd or V_sd"}},
+      {"param_friction_angle_90", {{"p.toml", P("phi_c_deg = 23", "phi_c_deg = 90")}}, kEl, kInput, {"p.toml:13", "'frictional.phi_c_deg'", "in (0, 90)"}},
+      {"param_friction_angle_negative", {{"p.toml", P("phi_c_deg = 23", "phi_c_deg = -5")}}, kEl, kInput, {"p.toml:13", "'frictional.phi_c_deg'", "in (0, 90)"}},
+      {"param_poisson_ratio_half", {{"p.toml", P("nu = 0.235", "nu = 0.5")}}, kEl, kInput, {"p.toml:11", "'frictional.nu'", "in (-1, 0.5)"}},
+      {"param_integer_as_float", {{"p.toml", kParams + "[numerics]\nmax_substeps = 1.5\n"}}, kEl, kInput, {"p.toml:26", "'numerics.max_substeps'", "expected an integer"}},
+      {"param_table_is_value", {{"p.toml", "initial = 5\n" + kParams.substr(0, kParams.find("[initial]"))}}, kEl, kInput, {"p.toml:1", "'initial'", "expected a table, got an integer"}},
+      {"param_truncated", {{"p.toml", kParams.substr(0, kParams.find("xi = ") + 4)}}, kEl, kInput, {"p.toml:16", "TOML syntax error"}},
+      {"param_duplicate_key", {{"p.toml", P("K0 = 120", "K0 = 120\nK0 = 130")}}, kEl, kInput, {"p.toml:11", "TOML syntax error", "K0"}},
+      {"param_empty_file", {{"p.toml", ""}}, kEl, kInput, {"p.toml", "needs a [frictional] or a [collisional] table"}},
+      {"param_binary_garbage", {{"p.toml", std::string("\x7f" "ELF\x02\x01\x01\0\0\0", 10)}}, kEl, kInput, {"p.toml:1", "TOML syntax error"}},
+      {"param_no_such_set", {}, {"element", "t.toml", "--params", "elemnt_test", "--out", "out.csv"}, kInput, {"elemnt_test", "no such file", "shipped sets:", "element_test"}},
+      {"param_name_too_long", {}, {"element", "t.toml", "--params", std::string(300, 'p'), "--out", "out.csv"}, kInput, {"pppp: no such file, and no parameter set of that name"}},
+      {"param_is_directory", {{"sub/x", ""}}, {"element", "t.toml", "--params", "sub", "--out", "out.csv"}, kInput, {"sub", "not a regular file"}},
+      {"param_lambda_negative", {{"p.toml", P("lambda_c = 0.122", "lambda_c = -0.1")}}, kEl, kInput, {"p.toml:15", "'frictional.lambda_c'", ">= 0"}},
+
+      // ---- element-test TOML -----------------------------------------------------------------
+      {"test_unknown_key", {{"t.toml", T("sigma_v0", "sigma_v")}}, kEl, kInput, {"t.toml:8", "unknown key 'test.sigma_v'", "allowed here", "sigma_v0"}},
+      {"test_unknown_top_level_key", {{"t.toml", edit(kTest, "params =", "parms =")}}, kEl, kInput, {"t.toml:1", "unknown key 'parms'", "allowed at top level"}},
+      {"test_bad_path_choice", {{"t.toml", T("undrained_simple_shear", "triaxial")}}, kEl, kInput, {"t.toml:3", "'test.path'", "must be one of", "'drained_triaxial'"}},
+      {"test_rtol_above_1", {{"t.toml", kTest + "rtol = 2\n"}}, kEl, kInput, {"t.toml:10", "'test.rtol'", "in (0, 1)"}},
+      {"test_missing_test_table", {{"t.toml", "params = \"p.toml\"\n"}}, kEl, kInput, {"t.toml", "'test'", "required table [test] is missing"}},
+      {"test_acceleration_missing", {{"t.toml", T("\"constant\"", "\"acceleration\"")}}, kEl, kInput, {"t.toml", "'test.acceleration'", "required key is missing"}},
+      {"test_dt_with_cvode", {{"t.toml", kTest + "dt = 1e-3\n"}}, kEl, kInput, {"t.toml:10", "'test.dt'", "only with solver = \"incremental\""}},
+      {"test_rate_negative", {{"t.toml", T("rate = 10.0", "rate = -1")}}, kEl, kInput, {"t.toml:5", "'test.rate'", ">= 0"}},
+      {"test_rate_zero_constant", {{"t.toml", T("rate = 10.0", "rate = 0")}}, kEl, kInput, {"t.toml:5", "'test.rate'", "must be > 0"}},
+      {"test_duration_inf", {{"t.toml", T("duration = 0.01", "duration = inf")}}, kEl, kInput, {"t.toml:6", "'test.duration'", "finite"}},
+      {"test_e0_out_of_range", {{"t.toml", T("e0 = 0.99", "e0 = 3.5")}}, kEl, kInput, {"t.toml:7", "'test.e0'", "in (0, 2.97)"}},
+      {"test_e0_Vs_above_Vsd", {{"t.toml", T("e0 = 0.99", "e0 = 0.6")}}, kEl, kInput, {"t.toml: 'test.e0' (V_sd from p.toml)", "e0 = 0.6", "at or above V_sd", "must exceed e_sd"}},
+      {"test_outputs_too_few", {{"t.toml", T("outputs = 3", "outputs = 1")}}, kEl, kInput, {"t.toml:9", "'test.outputs'", "in [2, "}},
+      {"test_outputs_not_integer", {{"t.toml", T("outputs = 3", "outputs = \"many\"")}}, kEl, kInput, {"t.toml:9", "'test.outputs'", "expected an integer"}},
+      {"test_overrides_not_array", {{"t.toml", edit(kTest, "[test]", "overrides = \"frictional.K0=1\"\n[test]")}}, kEl, kInput, {"t.toml:2", "'overrides'", "array of strings"}},
+      {"test_hold_after_duration", {{"t.toml", T("\"constant\"", "\"acceleration\"\nacceleration = 5\nhold = 1")}}, kEl, kInput, {"t.toml", "'test.hold'", "shorter than duration"}},
+      {"test_stress_outside_yield", {{"t.toml", kTest + "k0 = 5\n"}}, kEl, kInput, {"t.toml", "outside the yield surface"}},
+      {"test_sweep_min_above_max", {{"t.toml", edit(edit(kTest, "programme = \"constant\"", "programme = \"sweep\"\nrate_min = 10\nrate_max = 1"), "duration = 0.01\n", "")}}, kEl, kInput, {"t.toml", "'test.rate_max'", "must exceed rate_min"}},
+      {"test_sweep_too_many_rates", {{"t.toml", edit(edit(kTest, "programme = \"constant\"", "programme = \"sweep\"\nrate_min = 5e-324\nrate_max = 1000\nrates_per_decade = 1000"), "duration = 0.01\n", "")}}, kEl, kInput, {"t.toml", "'test.rate_max'", "would need more than 100000 rates"}},
+      {"test_file_missing", {}, {"element", "nope.toml", "--out", "out.csv"}, kInput, {"nope.toml", "cannot open file"}},
+      {"test_file_is_directory", {{"sub/x", ""}}, {"element", "sub", "--out", "out.csv"}, kInput, {"sub", "not a regular file"}},
+      {"test_rate_file_name_too_long", {{"table.toml", edit(kTableTest, "rates.csv", std::string(300, 'r') + ".csv")}}, kTab, kInput, {"rrrr.csv: cannot open file (File name too long)"}},
+      {"test_truncated", {{"t.toml", kTest.substr(0, kTest.find("rate = 10") + 6)}}, kEl, kInput, {"t.toml:5", "TOML syntax error"}},
+      {"test_step_budget", {{"t.toml", kTest + "max_steps = 3\n"}}, kEl, 1, {"CV_TOO_MUCH_WORK", "at t = ", "test.max_steps = 3"}},
+      {"test_step_budget_incremental", {{"t.toml", kTest + "solver = \"incremental\"\ndt = 1e-4\nmax_steps = 3\n"}}, kEl, 1, {"incremental update", "test.max_steps = 3", "at t = "}},
+
+      {"run_voids_vanish", {{"t.toml", "params = \"p.toml\"\n[test]\npath = \"isotropic\"\nmodel = \"frictional\"\nrate = 1.0\nduration = 1.0\ne0 = 0.99\n"}}, kEl, 1, {"CVODE failed", "at t = 0.2293", "allowed: 0 < e < 2.97"}},  // ln(1.99)/3
+
+      // ---- --set overrides ---------------------------------------------------------------------
+      {"set_unknown_key", {}, el_set("frictional.phi_c=31"), kInput, {"--set 'frictional.phi_c=31': unknown key 'frictional.phi_c'", "allowed here", "phi_c_deg"}},
+      {"set_no_section", {}, el_set("phi_c_deg=31"), kInput, {"--set 'phi_c_deg=31'", "expected section.key=value"}},
+      {"set_not_a_number", {}, el_set("frictional.phi_c_deg=abc"), kInput, {"--set 'frictional.phi_c_deg=abc'"}},
+      {"set_out_of_range", {}, el_set("frictional.phi_c_deg=95"), kInput, {"--set 'frictional.phi_c_deg=95': 'frictional.phi_c_deg': must be in (0, 90), got 95"}},
+      {"set_negative_density", {}, el_set("collisional.rho_p=-5"), kInput, {"'collisional.rho_p'", "must be > 0"}},
+      {"set_unknown_section", {}, el_set("mpm.ppc=4"), kInput, {"--set 'mpm.ppc=4'", "no [mpm] table"}},
+      {"set_nan", {}, el_set("frictional.K0=nan"), kInput, {"'frictional.K0'", "finite"}},
+      {"set_string_value", {}, el_set("collisional.eps_n=\"0.5\""), kInput, {"'collisional.eps_n'", "expected a number, got a string"}},
+      {"set_empty_value", {}, el_set("frictional.K0="), kInput, {"--set 'frictional.K0='"}},
+      {"set_in_test_file", {{"t.toml", edit(kTest, "[test]", "overrides = [\"frictional.xi=-1\"]\n[test]")}}, kEl, kInput, {"t.toml: overrides 'frictional.xi=-1': 'frictional.xi': must be > 0, got -1"}},
+
+      // ---- CLI arguments and output files ---------------------------------------------------
+      {"cli_unknown_command", {}, {"elemnt", "t.toml"}, 106, {"A subcommand is required"}},  // CLI11's message; see docs/reliability.md
+      {"cli_unknown_option", {}, {"element", "t.toml", "--forse"}, 109, {"--forse"}},
+      {"cli_out_without_value", {}, {"element", "t.toml", "--out"}, 114, {"--out"}},
+      {"cli_no_command", {}, {}, 106, {"subcommand"}},
+      {"out_exists_without_force", {{"out.csv", "previous result\n"}}, kEl, kInput, {"out.csv", "file exists", "--force"}},
+      {"out_directory_missing", {}, {"element", "t.toml", "--out", "no/such/dir/out.csv"}, kInput, {"no/such/dir", "does not exist"}},
+      {"out_failed_run_keeps_old_result", {{"out.csv", "previous result\n"}, {"t.toml", kTest + "max_steps = 3\n"}}, {"element", "t.toml", "--out", "out.csv", "--force"}, 1, {"CV_TOO_MUCH_WORK"}},
+      {"out_is_directory", {{"res/x", ""}}, {"element", "t.toml", "--out", "res", "--force"}, kInput, {"res", "is a directory"}},
+
+      // ---- rate-programme CSV (programme = "table") ------------------------------------------
+      {"rates_unsorted", {{"rates.csv", "time,rate\n0,10\n0.006,20\n0.004,20\n0.01,1\n"}}, kTab, kInput, {"rates.csv:4", "'time' must not decrease"}},
+      {"rates_non_numeric", {{"rates.csv", "time,rate\n0,10\n0.005,fast\n0.01,20\n"}}, kTab, kInput, {"rates.csv:3", "column 'rate'", "'fast' is not a number"}},
+      {"rates_nan", {{"rates.csv", "time,rate\n0,10\n0.005,nan\n0.01,20\n"}}, kTab, kInput, {"rates.csv:3", "column 'rate'", "not a finite number"}},
+      {"rates_overflow", {{"rates.csv", "time,rate\n0,10\n0.005,1e999\n0.01,20\n"}}, kTab, kInput, {"rates.csv:3", "column 'rate'", "not a finite number"}},
+      {"rates_empty_file", {{"rates.csv", ""}}, kTab, kInput, {"rates.csv: the file is empty", "(time,rate)"}},
+      {"rates_is_directory", {{"rates.csv", kAbsent}, {"rates.csv/x", ""}}, kTab, kInput, {"rates.csv", "not a regular file"}},
+      {"rates_header_only", {{"rates.csv", "time,rate\n"}}, kTab, kInput, {"rates.csv", "no data rows"}},
+      {"rates_semicolons", {{"rates.csv", "time;rate\n0;10\n0.01;20\n"}}, kTab, kInput, {"rates.csv", "delimiter must be a comma"}},
+      {"rates_missing_column", {{"rates.csv", "time,rat\n0,10\n0.01,20\n"}}, kTab, kInput, {"rates.csv", "rate", "Header found: 'time,rat'"}},
+      {"rates_negative", {{"rates.csv", "time,rate\n0,10\n0.01,-2\n"}}, kTab, kInput, {"rates.csv:3", "'rate' must be >= 0"}},
+      {"rates_not_from_zero", {{"rates.csv", "time,rate\n0.001,10\n0.01,20\n"}}, kTab, kInput, {"rates.csv:2", "must start at time 0"}},
+      {"rates_single_row", {{"rates.csv", "time,rate\n0,10\n"}}, kTab, kInput, {"rates.csv", "at least 2 rows"}},
+      {"rates_short_row", {{"rates.csv", "time,rate\n0,10\n0.01\n"}}, kTab, kInput, {"rates.csv:3"}},
+      {"rates_long_row", {{"rates.csv", "time,rate\n0,10\n0.01,20,30\n"}}, kTab, kInput, {"rates.csv:3"}},
+      {"rates_unterminated_quote", {{"rates.csv", "time,rate\n0,10\n\"0.01,20\n"}}, kTab, kInput, {"rates.csv:3"}},
+      {"rates_file_missing", {{"rates.csv", kAbsent}}, kTab, kInput, {"rates.csv", "cannot open file"}},
+      {"rates_duration_past_table", {{"table.toml", kTableTest + "duration = 1\n"}}, kTab, kInput, {"table.toml:6", "'test.duration'", "past the last time"}},
+
+      // ---- lab CSV (the reader calibration uses; run through granflow_csv_probe) --------------
+      {"lab_duplicated_abscissa", {{"lab.csv", "strain,q\n0,0\n0.01,120\n0.01,130\n"}}, kLabArgs, kInput, {"lab.csv:4", "column 'strain' must increase strictly"}},
+      {"lab_unsorted_abscissa", {{"lab.csv", "strain,q\n0,0\n0.02,120\n0.01,130\n"}}, kLabArgs, kInput, {"lab.csv:4", "must increase strictly"}},
+      {"lab_non_numeric", {{"lab.csv", "strain,q\n0,0\n0.01,12O\n"}}, kLabArgs, kInput, {"lab.csv:3", "column 'q'", "'12O' is not a number"}},
+      {"lab_empty_cell", {{"lab.csv", "strain,q\n0,0\n0.01,\n"}}, kLabArgs, kInput, {"lab.csv:3", "column 'q'", "empty cell"}},
+      {"lab_tab_delimited", {{"lab.csv", "strain\tq\n0\t0\n0.01\t120\n"}}, kLabArgs, kInput, {"lab.csv", "delimiter must be a comma"}},
+      {"lab_empty_file", {{"lab.csv", ""}}, kLabArgs, kInput, {"lab.csv: the file is empty", "(strain,q)"}},
+      {"lab_only_comments", {{"lab.csv", "# nothing measured\n"}}, kLabArgs, kInput, {"lab.csv: the file is empty"}},
+      {"lab_inf", {{"lab.csv", "strain,q\n0,0\n0.01,inf\n"}}, kLabArgs, kInput, {"lab.csv:3", "not a finite number"}},
+      {"lab_truncated_row", {{"lab.csv", "strain,q\n0,0\n0.01"}}, kLabArgs, kInput, {"lab.csv:3"}},
+      {"lab_file_missing", {{"lab.csv", kAbsent}}, kLabArgs, kInput, {"lab.csv", "cannot open file"}},
+  };
+}
+
+}  // namespace reliability

@@ -1,0 +1,48 @@
+// Table-driven bad-input harness: each case writes a few files into a fresh folder, runs a
+// program (the real `granflow` binary by default) there as a subprocess and checks that
+//   - it exits normally (no signal: no crash, no sanitizer abort) with the expected code,
+//   - stderr holds ONE message (one line; CLI11's "Run with --help" hint aside) containing
+//     every required substring (file:line, key, what is allowed),
+//   - nothing was created in the folder (no output, no left-over temporary) and every file
+//     the case wrote (an existing result among them) is byte-for-byte unchanged.
+#pragma once
+
+#include <map>
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace reliability {
+
+// name -> content. kAbsent removes a default file from the case.
+using Files = std::map<std::string, std::string>;
+extern const char* const kAbsent;
+
+struct Case {
+  std::string name;                 // test name (letters, digits, '_')
+  Files files;                      // written before the run (merged over the defaults)
+  std::vector<std::string> argv;    // arguments; argv[0] "@csv" runs granflow_csv_probe instead of granflow
+  int exit_code;                    // expected exit status (2: input error, 1: run failure, 1xx: CLI11)
+  std::vector<std::string> stderr_has;  // required substrings of the one message
+};
+
+inline void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
+
+struct Outcome {
+  bool signaled = false;
+  int signal = 0;
+  int exit_code = -1;
+  bool timed_out = false;
+  std::string out, err;
+};
+
+// Runs program with args in folder dir (cwd), with GRANFLOW_DATA_DIR set to the source data.
+Outcome run_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args,
+               double timeout_s = 120.0);
+
+// Returns base with the first occurrence of `from` replaced by `to`; a marker that fails the
+// case when `from` is not in base (so a stale edit cannot silently test the good file).
+std::string edit(const std::string& base, const std::string& from, const std::string& to);
+std::string drop_line(const std::string& base, const std::string& line_start);
+
+}  // namespace reliability

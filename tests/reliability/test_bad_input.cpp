@@ -1,0 +1,132 @@
+// Runs every case of cases.cpp against the real granflow binary (see harness.hpp), plus
+// controls showing the default files are good (so each bad case fails for its own reason).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "harness.hpp"
+
+namespace reliability {
+std::vector<Case> all_cases();
+Files default_files();
+}  // namespace reliability
+
+using namespace reliability;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream os;
+  os << in.rdbuf();
+  return os.str();
+}
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path root = fs::path(::testing::TempDir()) / "granflow_bad_input" / name;
+  fs::remove_all(root);
+  fs::create_directories(root / "work");
+  return root / "work";
+}
+
+Files merged(const Case& c) {
+  Files f = default_files();
+  for (const auto& [k, v] : c.files) f[k] = v;
+  for (auto it = f.begin(); it != f.end();) it = it->second == kAbsent ? f.erase(it) : std::next(it);
+  return f;
+}
+
+std::set<std::string> listing(const fs::path& dir) {
+  std::set<std::string> s;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) s.insert(fs::relative(e.path(), dir).string());
+  return s;
+}
+
+Outcome run_case(const fs::path& dir, const std::vector<std::string>& argv) {
+  std::vector<std::string> args = argv;
+  std::string program = GRANFLOW_BINARY;
+  if (!args.empty() && args.front() == "@csv") {
+    program = GRANFLOW_CSV_PROBE;
+    args.erase(args.begin());
+  }
+  return run_in(dir.string(), program, args);
+}
+
+std::vector<std::string> message_lines(const std::string& err) {
+  std::vector<std::string> lines;
+  std::istringstream is(err);
+  for (std::string l; std::getline(is, l);) {
+    if (l.find_first_not_of(" \t\r") == std::string::npos) continue;
+    if (l.rfind("Run with --help", 0) == 0) continue;  // CLI11's hint after its message
+    lines.push_back(l);
+  }
+  return lines;
+}
+
+class BadInput : public ::testing::TestWithParam<Case> {};
+
+TEST_P(BadInput, OneClearMessageNoCrashNoOutput) {
+  const Case& c = GetParam();
+  const fs::path dir = fresh_dir(c.name);
+  const Files files = merged(c);
+  for (const auto& [name, text] : files) {
+    ASSERT_EQ(text.rfind('\x01', 0), std::string::npos) << "stale case: " << text;
+    fs::create_directories((dir / name).parent_path());
+    std::ofstream(dir / name, std::ios::binary) << text;
+  }
+  const std::set<std::string> before = listing(dir);
+  const Outcome o = run_case(dir, c.argv);
+  std::string cmd;
+  for (const auto& a : c.argv) cmd += " " + a;
+  SCOPED_TRACE("command:" + cmd + "\nstderr: " + o.err);
+
+  EXPECT_FALSE(o.timed_out);
+  EXPECT_FALSE(o.signaled) << "killed by signal " << o.signal;
+  EXPECT_EQ(o.exit_code, c.exit_code);
+  const std::vector<std::string> lines = message_lines(o.err);
+  EXPECT_EQ(lines.size(), 1u) << "expected one message line";
+  for (const auto& s : c.stderr_has) EXPECT_NE(o.err.find(s), std::string::npos) << "missing '" << s << "'";
+  for (const char* bad : {"Sanitizer", "terminate called", "Segmentation", "Aborted", "what():"})
+    EXPECT_EQ(o.err.find(bad), std::string::npos) << bad;
+  // Nothing new in the folder, every file as it was.
+  EXPECT_EQ(listing(dir), before);
+  for (const auto& [name, text] : files)
+    if (fs::is_regular_file(dir / name)) EXPECT_EQ(slurp(dir / name), text) << name << " changed";
+}
+
+INSTANTIATE_TEST_SUITE_P(Cases, BadInput, ::testing::ValuesIn(all_cases()),
+                         [](const ::testing::TestParamInfo<Case>& i) { return i.param.name; });
+
+TEST(BadInputSuite, HasAtLeastFortyDistinctCases) {
+  const auto cases = all_cases();
+  std::set<std::string> names;
+  for (const auto& c : cases) names.insert(c.name);
+  EXPECT_EQ(names.size(), cases.size()) << "duplicate case names";
+  EXPECT_GE(cases.size(), 40u);
+}
+
+// Controls: the default files (and a good rate table) run, and the output is written.
+TEST(BadInputControl, DefaultFilesRun) {
+  const fs::path dir = fresh_dir("control_default");
+  for (const auto& [name, text] : default_files()) std::ofstream(dir / name) << text;
+  for (const auto& args : std::vector<std::vector<std::string>>{
+           {"element", "t.toml", "--out", "out.csv"},
+           {"element", "table.toml", "--out", "table.csv"},
+           {"element", "t.toml", "--params", "p.toml", "--set", "frictional.phi_c_deg=25", "--out", "set.csv"},
+           {"@csv", "lab.csv", "strain,q", "strain"}}) {
+    const Outcome o = run_case(dir, args);
+    EXPECT_EQ(o.exit_code, 0) << args[1] << ": " << o.err;
+  }
+  for (const char* f : {"out.csv", "table.csv", "set.csv"}) EXPECT_TRUE(fs::exists(dir / f)) << f;
+  // and --force overwrites an existing result
+  const Outcome o = run_case(dir, {"element", "t.toml", "--out", "out.csv", "--force"});
+  EXPECT_EQ(o.exit_code, 0) << o.err;
+  EXPECT_EQ(listing(dir).size(), default_files().size() + 3);
+}
+
+}  // namespace
