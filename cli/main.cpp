@@ -21,8 +21,22 @@ int main(int argc, char** argv) {
   granflow::cli::register_bench(app);
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    // Command-line mistakes: one line naming what was given, then where to look.
+    std::cerr << "granflow: error: " << e.what();
+    if (argc > 1) {
+      std::cerr << " (command line:";
+      for (int i = 1; i < argc; ++i) std::cerr << ' ' << argv[i];
+      std::cerr << ")";
+    }
+    std::cerr << "\nRun 'granflow --help' or 'granflow <command> --help' for the options.\n";
+    return e.get_exit_code() == 0 ? 2 : e.get_exit_code();
   } catch (const granflow::io::InputError& e) {
     std::cerr << "granflow: error: " << e.what() << "\n";
     return 2;
