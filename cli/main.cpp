@@ -35,7 +35,7 @@ int main(int argc, char** argv) {
       for (int i = 1; i < argc; ++i) std::cerr << ' ' << argv[i];
       std::cerr << ")";
     }
-    std::cerr << "\nRun 'granflow --help' or 'granflow <command> --help' for the options.\n";
+    std::cerr << "; options: granflow [<command>] --help\n";
     return e.get_exit_code() == 0 ? 2 : e.get_exit_code();
   } catch (const granflow::io::InputError& e) {
     std::cerr << "granflow: error: " << e.what() << "\n";

@@ -150,7 +150,7 @@ std::vector<Case> all_cases() {
       {"set_in_test_file", {{"t.toml", edit(kTest, "[test]", "overrides = [\"frictional.xi=-1\"]\n[test]")}}, kEl, kInput, {"t.toml: overrides 'frictional.xi=-1': 'frictional.xi': must be > 0, got -1"}},
 
       // ---- CLI arguments and output files ---------------------------------------------------
-      {"cli_unknown_command", {}, {"elemnt", "t.toml"}, 106, {"A subcommand is required"}},  // CLI11's message; see docs/reliability.md
+      {"cli_unknown_command", {}, {"elemnt", "t.toml"}, 106, {"A subcommand is required", "command line: elemnt t.toml"}},  // CLI11's message; see docs/reliability.md
       {"cli_unknown_option", {}, {"element", "t.toml", "--forse"}, 109, {"--forse"}},
       {"cli_out_without_value", {}, {"element", "t.toml", "--out"}, 114, {"--out"}},
       {"cli_no_command", {}, {}, 106, {"subcommand"}},
