@@ -45,7 +45,8 @@ void data_array(std::ostream& os, const char* type, const char* name, int comp, 
     os << "          " << base64(reinterpret_cast<const unsigned char*>(buf.data()), buf.size()) << "\n";
   } else {
     os.precision(10);
-    for (size_t i = 0; i < v.size(); ++i) os << (i % 9 == 0 ? "\n          " : " ") << v[i];
+    // +v promotes 8-bit types so they print as numbers, not characters
+    for (size_t i = 0; i < v.size(); ++i) os << (i % 9 == 0 ? "\n          " : " ") << +v[i];
     os << "\n";
   }
   os << "        </DataArray>\n";

@@ -66,22 +66,36 @@ Vtu read_vtu(const std::string& path) {
   for (auto it = std::sregex_iterator(xml.begin(), xml.end(), da); it != std::sregex_iterator(); ++it) {
     const std::string type = (*it)[1], name = (*it)[2], fmt = (*it)[4], body = (*it)[5];
     v.components[name] = std::stoi((*it)[3]);
-    if (type != "Float64") {
-      v.arrays[name] = {};
-      continue;
-    }
     std::vector<double> vals;
     if (fmt == "ascii") {
+      // every token must be a number (an 8-bit type written as a character would not be)
       std::istringstream is(body);
-      double x;
-      while (is >> x) vals.push_back(x);
+      std::string tok;
+      while (is >> tok) {
+        size_t used = 0;
+        vals.push_back(std::stod(tok, &used));
+        EXPECT_EQ(used, tok.size()) << name << ": '" << tok << "'";
+      }
     } else {
       const std::vector<unsigned char> raw = unbase64(body);
       std::uint32_t bytes = 0;
       std::memcpy(&bytes, raw.data(), 4);
       EXPECT_EQ(bytes + 4, raw.size()) << name;
-      vals.resize(bytes / 8);
-      std::memcpy(vals.data(), raw.data() + 4, bytes);
+      const unsigned char* d = raw.data() + 4;
+      if (type == "Float64") {
+        vals.resize(bytes / 8);
+        std::memcpy(vals.data(), d, bytes);
+      } else if (type == "Int32") {
+        for (std::uint32_t k = 0; k + 4 <= bytes; k += 4) {
+          std::int32_t x;
+          std::memcpy(&x, d + k, 4);
+          vals.push_back(x);
+        }
+      } else if (type == "UInt8") {
+        for (std::uint32_t k = 0; k < bytes; ++k) vals.push_back(d[k]);
+      } else {
+        ADD_FAILURE() << "unexpected type " << type;
+      }
     }
     v.arrays[name] = vals;
   }
@@ -172,6 +186,15 @@ TEST(MpmIo, VtuReadBackMatchesFrame) {
       ASSERT_TRUE(v.arrays.count(name)) << name;
     EXPECT_EQ(v.components.at("position"), 3);
     ASSERT_EQ(v.arrays.at("position").size(), static_cast<size_t>(3 * f.n));
+    // vertex cells: connectivity 0..n-1, offsets 1..n, every type VTK_VERTEX (1)
+    ASSERT_EQ(v.arrays.at("connectivity").size(), static_cast<size_t>(f.n));
+    ASSERT_EQ(v.arrays.at("offsets").size(), static_cast<size_t>(f.n));
+    ASSERT_EQ(v.arrays.at("types").size(), static_cast<size_t>(f.n));
+    for (long i = 0; i < f.n; ++i) {
+      EXPECT_EQ(v.arrays.at("connectivity")[i], i);
+      EXPECT_EQ(v.arrays.at("offsets")[i], i + 1);
+      EXPECT_EQ(v.arrays.at("types")[i], 1);
+    }
     ASSERT_EQ(v.arrays.at("p").size(), static_cast<size_t>(f.n));
     for (long i = 0; i < f.n; i += 7) {
       EXPECT_NEAR(v.arrays.at("position")[3 * i + 1], f.x[f.n + i], 1e-9);
