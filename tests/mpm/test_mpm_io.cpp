@@ -337,13 +337,13 @@ TEST(MpmIo, SceneFilesMatchInCodeScenes) {
   const std::string dir = std::string(GRANFLOW_SOURCE_DIR) + "/mpm/scenes/";
   using MK = ModelKind;
   using SK = ShapeKind;
-  expect_same_scene(io::load_scene(dir + "column_collapse.toml"), column_scene(0.001, 1e-5, MK::PhaseTransition, SK::Linear, 1.0));
-  expect_same_scene(io::load_scene(dir + "column_collapse_frictional.toml"), column_scene(0.001, 1e-5, MK::Frictional, SK::Linear, 1.0));
+  expect_same_scene(io::load_scene(dir + "column_collapse.toml"), column_scene(0.001, 1e-5, MK::PhaseTransition, SK::QuadraticBSpline, 1.0));
+  expect_same_scene(io::load_scene(dir + "column_collapse_frictional.toml"), column_scene(0.001, 1e-5, MK::Frictional, SK::QuadraticBSpline, 1.0));
   Scene ci = small_column_scene(MK::PhaseTransition);
   ci.output.times = {0.05, 0.25, 0.4};
   expect_same_scene(io::load_scene(dir + "column_collapse_ci.toml"), ci);
-  expect_same_scene(io::load_scene(dir + "flume.toml"), flume_scene(0.005, 1e-6, MK::PhaseTransition, SK::Linear, 3.0));
-  expect_same_scene(io::load_scene(dir + "flume_frictional.toml"), flume_scene(0.005, 1e-6, MK::Frictional, SK::Linear, 3.0));
+  expect_same_scene(io::load_scene(dir + "flume.toml"), flume_scene(0.005, 1e-6, MK::PhaseTransition, SK::QuadraticBSpline, 3.0));
+  expect_same_scene(io::load_scene(dir + "flume_frictional.toml"), flume_scene(0.005, 1e-6, MK::Frictional, SK::QuadraticBSpline, 3.0));
 }
 
 TEST(MpmIo, GeostaticInitialStressLiesOnTheYieldSurface) {

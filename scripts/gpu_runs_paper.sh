@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# GPU session for the paper's scenes (run on the GPU machine from the repository root, $OUT set):
+#   scripts/gpu_runs_paper.sh column   checks, column benchmark, 1 mm runs, mesh series
+#   scripts/gpu_runs_paper.sh flume    flume benchmark, 5 mm runs, mesh series
+# Logs and CSVs are packed into $OUT/<part>.tgz; every run's summary goes to $OUT/<part>.log.
+set -uo pipefail
+part=${1:-column}
+B=build-gpu
+[ -x $B/granflow-mpm ] || scripts/gpu_build.sh >/dev/null
+R=/tmp/gf_runs
+mkdir -p $R
+log=$OUT/$part.log
+run() {  # run NAME ARGS...: one granflow-mpm run, its summary in the log, its CSVs kept
+  local name=$1
+  shift
+  echo "== $name: granflow-mpm $*" >>$log
+  $B/granflow-mpm "$@" --out $R/$name 2>&1 | tr '\r' '\n' | grep -v "steps/s  ETA" >>$log
+}
+if [ "$part" = column ]; then
+  $B/tests/cuda/constitutive_device_host >>$log 2>&1
+  OMP_NUM_THREADS=8 $B/mpm_cuda_check --short >>$log 2>&1
+  for m in pt frictional; do
+    echo "== bench column 1 mm $m" >>$log
+    $B/granflow-mpm column --backend cuda --model $m --bench 300 --warmup 20 >>$log 2>&1
+  done
+  run col1_pt column --backend cuda --model pt
+  run col1_fr column --backend cuda --model frictional
+  for h in 0.01 0.005 0.0025; do run col_${h}_pt column --backend cuda --model pt --h $h; done
+  run col1_pt_linear column --backend cuda --model pt --shape linear --stop-after 0.2
+else
+  echo "== bench flume 5 mm pt" >>$log
+  $B/granflow-mpm flume --backend cuda --model pt --bench 300 --warmup 20 >>$log 2>&1
+  run fl5_pt flume --backend cuda --model pt
+  run fl5_fr flume --backend cuda --model frictional
+  for h in 0.02 0.01; do run fl_${h}_pt flume --backend cuda --model pt --h $h; done
+fi
+(cd $R && find . -name "*.csv" | tar czf $OUT/$part.tgz -T -)
+tail -c 6000 $log
