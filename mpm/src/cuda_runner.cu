@@ -29,15 +29,9 @@ __global__ void p2g_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, 
   int base[D];
   stencil_base<D, S, Shape>(q.xi, sp.grid, base);
   keys[p] = sp.grid.linear(base);  // bin of the particle (volumetric averaging)
-  constexpr int K = Shape::K;
-  int n_st = 1;
-  for (int d = 0; d < D; ++d) n_st *= K;
-  for (int k = 0; k < n_st; ++k) {
-    int I[D], kk = k;
-    for (int d = 0; d < D; ++d) {
-      I[d] = base[d] + kk % K;
-      kk /= K;
-    }
+  for (int k = 0; k < stencil_size<D, Shape::K>(); ++k) {
+    int I[D];
+    stencil_node<D, Shape::K>(base, k, I);
     S c[1 + 2 * D];
     p2g_contribution<D, S, Shape>(q, I, sp.grid.inv_h, c);
     const long n = sp.grid.linear(I);

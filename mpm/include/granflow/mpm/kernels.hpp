@@ -103,6 +103,22 @@ GF_HDI void p2g_contribution(const P2GParticle<D, S>& q, const int* I, S inv_h, 
   }
 }
 
+// The K^D nodes of a stencil: node k lies at base + (k mod K, (k / K) mod K, ...).
+template <int D, int K>
+GF_HDI constexpr int stencil_size() {
+  int n = 1;
+  for (int d = 0; d < D; ++d) n *= K;
+  return n;
+}
+
+template <int D, int K>
+GF_HDI void stencil_node(const int* base, int k, int* I) {
+  for (int d = 0; d < D; ++d) {
+    I[d] = base[d] + k % K;
+    k /= K;
+  }
+}
+
 // Lowest stencil node of a particle (per axis) and whether the whole stencil is on the grid.
 template <int D, class S, class Shape>
 GF_HDI bool stencil_base(const S* xi, const GridDesc<D, S>& g, int* base) {
@@ -192,15 +208,9 @@ GF_HDI std::uint32_t g2p_kinematics(const ParticleView<S>& pv, const GridView<S>
   if (!stencil_base<D, S, Shape>(xi, sp.grid, base)) return kLeftGrid;
 
   S vpic[D] = {}, dv[D] = {}, L[D][D] = {};
-  constexpr int K = Shape::K;
-  int n_st = 1;
-  for (int d = 0; d < D; ++d) n_st *= K;
-  for (int k = 0; k < n_st; ++k) {
-    int I[D], kk = k;
-    for (int d = 0; d < D; ++d) {
-      I[d] = base[d] + kk % K;
-      kk /= K;
-    }
+  for (int k = 0; k < stencil_size<D, Shape::K>(); ++k) {
+    int I[D];
+    stencil_node<D, Shape::K>(base, k, I);
     S w[D], g[D];
     for (int d = 0; d < D; ++d) {
       const S r = xi[d] - S(I[d]);
