@@ -264,25 +264,38 @@ const char* model_name(ModelKind m) { return m == ModelKind::PhaseTransition ? "
 
 }  // namespace
 
-Scene column_scene(double h, double dt, ModelKind model, ShapeKind shape, double collapse_time) {
+namespace {
+
+// What the paper's two plane-strain scenes share: grid of whole cells from the origin, 2 x 2
+// points per cell, gravity, the step, the material's model and initial state.
+Scene paper_scene(const char* title, double width, double height, double h, double dt, ModelKind model,
+                  ShapeKind shape, const char* material, double e0) {
   Scene sc;
   std::ostringstream os;
-  os << "column collapse (" << h * 1e3 << " mm), " << model_name(model);
+  os << title << " (" << h * 1e3 << " mm), " << model_name(model);
   sc.name = os.str();
   sc.dim = 2;
   sc.origin = {0.0, 0.0};
-  sc.size = {0.60, std::ceil(0.15 / h - 1e-9) * h};  // whole cells
+  sc.size = {width, std::ceil(height / h - 1e-9) * h};  // whole cells
   sc.h = h;
   sc.ppc_axis = 2;
   sc.shape = shape;
   sc.gravity = {0.0, -9.81};
   sc.dt = dt;
   Material& m = sc.material;
-  m.name = "column_collapse (Table 3, as data/params/column_collapse.toml)";
+  m.name = material;
   m.model = model;
-  m.e0 = 0.95;
+  m.e0 = e0;
   m.T0 = 1e-15;
-  column_collapse_params(m);
+  return sc;
+}
+
+}  // namespace
+
+Scene column_scene(double h, double dt, ModelKind model, ShapeKind shape, double collapse_time) {
+  Scene sc = paper_scene("column collapse", 0.60, 0.15, h, dt, model, shape,
+                         "column_collapse (Table 3, as data/params/column_collapse.toml)", 0.95);
+  column_collapse_params(sc.material);
   Body b;
   b.box_min = {0.0, 0.0};
   b.box_max = {0.2, 0.1};
@@ -311,26 +324,11 @@ Scene column_scene(double h, double dt, ModelKind model, ShapeKind shape, double
 Scene small_column_scene(ModelKind model, ShapeKind shape) { return column_scene(0.01, 5e-5, model, shape, 0.4); }
 
 Scene flume_scene(double h, double dt, ModelKind model, ShapeKind shape, double flow_time) {
-  Scene sc;
-  std::ostringstream os;
-  os << "flume (" << h * 1e3 << " mm), " << model_name(model);
-  sc.name = os.str();
   const double c45 = std::cos(M_PI / 4);
   const double H = 2.30 * c45, run = 0.5 * c45, thick = 0.30 / c45;
-  sc.dim = 2;
-  sc.origin = {0.0, 0.0};
-  sc.size = {3.20, std::ceil((H + thick + 0.1) / h - 1e-9) * h};
-  sc.h = h;
-  sc.ppc_axis = 2;
-  sc.shape = shape;
-  sc.gravity = {0.0, -9.81};
-  sc.dt = dt;
-  Material& m = sc.material;
-  m.name = "flume (Table 3, as data/params/flume.toml)";
-  m.model = model;
-  m.e0 = 0.90;
-  m.T0 = 1e-15;
-  flume_params(m);
+  Scene sc = paper_scene("flume", 3.20, H + thick + 0.1, h, dt, model, shape,
+                         "flume (Table 3, as data/params/flume.toml)", 0.90);
+  flume_params(sc.material);
   Body b;
   b.poly_x = {0.0, run, run, 0.0};
   b.poly_y = {H, H - run, H - run + thick, H + thick};

@@ -10,6 +10,8 @@
 #endif
 
 #include <granflow/mpm/driver.hpp>
+
+#include "one_thread.hpp"
 #include <granflow/mpm/kernels.hpp>
 
 using namespace granflow;
@@ -17,13 +19,6 @@ using namespace granflow::mpm;
 
 namespace {
 
-// Small scenes: one thread unless OMP_NUM_THREADS says otherwise (barrier waits dominate).
-const bool kOneThread = [] {
-#ifdef _OPENMP
-  if (!std::getenv("OMP_NUM_THREADS")) omp_set_num_threads(1);
-#endif
-  return true;
-}();
 
 template <class Shape>
 void check_partition_of_unity() {

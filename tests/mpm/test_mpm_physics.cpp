@@ -11,19 +11,13 @@
 
 #include <granflow/mpm/driver.hpp>
 
+#include "one_thread.hpp"
+
 using namespace granflow;
 using namespace granflow::mpm;
 
 namespace {
 
-// These scenes have a few hundred particles: more threads only add barrier waits (and on a
-// shared CI machine descheduled threads stall every barrier). OMP_NUM_THREADS still rules.
-const bool kOneThread = [] {
-#ifdef _OPENMP
-  if (!std::getenv("OMP_NUM_THREADS")) omp_set_num_threads(1);
-#endif
-  return true;
-}();
 
 RunSummary run_quiet(const SceneSetup& su) {
   auto r = make_cpu_runner(su);
