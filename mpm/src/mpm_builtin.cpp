@@ -85,6 +85,10 @@ int main(int argc, char** argv) {
                 "particle-updates/s: %.4g\nfinal run-out: %.4f m\nfinal height: %.4f m\n",
                 sc.name.c_str(), s.device.c_str(), r->particles(), s.steps, s.t_end, s.wall_s,
                 r->particles() * double(s.steps) / s.wall_s, s.final.runout, s.final.height);
+    if (s.steps > 0)
+      std::printf("kernel time per step: P2G %.2f us, grid %.2f us, G2P + constitutive %.2f us; wall per step %.2f us\n",
+                  1e6 * s.times.p2g / s.steps, 1e6 * s.times.grid / s.steps, 1e6 * s.times.g2p / s.steps,
+                  1e6 * s.wall_s / s.steps);
     if (s.consolidation.done)
       std::printf("after stage 1: base sigma_v %.1f Pa vs rho g h %.1f Pa, max rel. error %.3f\n",
                   s.consolidation.base_sigma_v, s.consolidation.base_rho_g_h, s.consolidation.max_rel_error);
