@@ -161,6 +161,7 @@ TEST(ElementStability, LoadingPaths) {
   {
     gt::ElementTest t = base();
     t.path = gt::LoadingPath::SimpleShearConstantNormal;
+    t.solver.rtol = 1e-8;  // the held stress drifts with the integration error: 3.7 Pa at 1e-6, 0.02 Pa here
     const auto r = gt::run_element_test(t, set);
     expect_admissible(r);
     for (double s : r.column("sigma_n")) EXPECT_NEAR(s, 100e3, 1.0);

@@ -28,13 +28,20 @@ struct ElasticModuli {
   S K, G;
 };
 
+// x^n, with the common exponent n = 1/2 (both Table 3 sets) as a square root: pow is the most
+// expensive operation of the stress update on CPU and GPU alike.
+template <class S>
+GF_HDI S pow_exponent(S x, S n) {
+  return n == S(0.5) ? std::sqrt(x) : std::pow(x, n);
+}
+
 // K_f = K0 p_at (2.97 - e)^2 / (1 + e) (p/p_at)^n with p floored at p_min (MODEL.md 3.2, A5);
 // G_f = 3 K (1 - 2 nu) / (2 (1 + nu)).
 template <class S>
 GF_HDI ElasticModuli<S> elastic_moduli(const FrictionalParams<S>& m, S p, S e) {
   const S pe = p > m.p_min ? p : m.p_min;
   const S a = S(kVoidRatioMax) - e;
-  const S K = m.K0 * m.p_at * a * a / (S(1) + e) * std::pow(pe / m.p_at, m.n);
+  const S K = m.K0 * m.p_at * a * a / (S(1) + e) * pow_exponent(pe / m.p_at, m.n);
   return {K, S(3) * K * (S(1) - S(2) * m.nu) / (S(2) * (S(1) + m.nu))};
 }
 
@@ -89,7 +96,7 @@ GF_HDI LodeFactor<S> lode_factor(S x, S sin_phi) {
     const S c = (S(3) - sin_phi) / (S(3) + sin_phi);
     const S c2 = c * c, c4 = c2 * c2;
     const S den = S(1) + c4 - (S(1) - c4) * x;
-    const S g = std::pow(S(2) * c4 / den, S(0.25));
+    const S g = std::sqrt(std::sqrt(S(2) * c4 / den));
     const S dg_dx = S(0.25) * g * (S(1) - c4) / den;
     // d ln g / d c = 1/c - c^3 (1 + x) / den ; d c / d sin = -6 / (3 + sin)^2
     const S dlng_dc = S(1) / c - c2 * c * (S(1) + x) / den;
@@ -158,12 +165,15 @@ GF_HDI YieldState<S> yield_state(const FrictionalParams<S>& mp, const Mat3In<S>&
   y.C = elastic_moduli(mp, inv.p, e);
   y.r = inv.q / pe;
 
-  // Eqs. (16)-(18): state-dependent peak and phase-transformation angles.
-  y.e_c = critical_void_ratio(mp, inv.p);
+  // Eqs. (16)-(18): state-dependent peak and phase-transformation angles. One power of p and
+  // the logarithm of e_c / e serve e_c, its p-derivative and both angles.
+  const S xpow = std::pow(pe / mp.p_at, mp.xi);
+  y.e_c = mp.e_ref * std::exp(-mp.lambda_c * xpow);
+  const S dec_dp = inv.p > mp.p_min ? -y.e_c * mp.lambda_c * mp.xi * xpow / inv.p : S(0);
   const S tan_c = std::tan(mp.phi_c);
-  const S ratio = y.e_c / e;
-  const S tan_p = std::pow(ratio, mp.n_p) * tan_c;
-  const S tan_pt = std::pow(ratio, -mp.n_d) * tan_c;
+  const S log_ratio = std::log(mp.e_ref / e) - mp.lambda_c * xpow;
+  const S tan_p = std::exp(mp.n_p * log_ratio) * tan_c;
+  const S tan_pt = std::exp(-mp.n_d * log_ratio) * tan_c;
   const S sin_p = sin_of_tan(tan_p), sin_pt = sin_of_tan(tan_pt);
   const S M_p = stress_ratio_of_angle(sin_p);
   const S M_pt = stress_ratio_of_angle(sin_pt);
@@ -181,7 +191,7 @@ GF_HDI YieldState<S> yield_state(const FrictionalParams<S>& mp, const Mat3In<S>&
   const S dGm_ds = gp.g * dM_ds + M_p * gp.dg_dsin;
   const S dGm_dtan = dGm_ds * dsin_dtan(tan_p);
   const S dtan_dec = mp.n_p * tan_p / y.e_c;
-  const S dGm_dp = dGm_dtan * dtan_dec * critical_void_ratio_dp(mp, inv.p);
+  const S dGm_dp = dGm_dtan * dtan_dec * dec_dp;
   y.dGm_de = dGm_dtan * (-mp.n_p * tan_p / e);
 
   // n = d r / d sigma - h d Gm / d sigma;  d p / d sigma = -I/3, d q / d sigma = 3/2 s_hat.
@@ -453,9 +463,11 @@ template <LodeShape L, class S>
 struct ReturnMapResidual {
   const FrictionalParams<S>& mp;
   S p_tr, q_tr, x, K, G, eps_n, e1, scale;
+  S tan_c, log_eref_e1;  // constants of the increment: tan(phi_c), ln(e_ref / e1)
 
   struct Value {
     S R1, R2, q;
+    S dR1_dL, dR2_dL;  // exact (at fixed p, Gm and the dilatancy angle do not depend on dLambda)
   };
 
   GF_HDI Value operator()(S p, S dL) const {
@@ -463,16 +475,19 @@ struct ReturnMapResidual {
     v.q = q_tr - S(3) * G * dL;
     const S pe = p > mp.p_min ? p : mp.p_min;
     const S r = v.q / pe;
-    const S e_c = critical_void_ratio(mp, p);
-    const S tan_c = std::tan(mp.phi_c);
-    const S tan_p = std::pow(e_c / e1, mp.n_p) * tan_c;
-    const S tan_pt = std::pow(e1 / e_c, mp.n_d) * tan_c;
+    // ln(e_c / e1) with e_c of Eq. (16): both angles from one power of p and two exp.
+    const S lr = log_eref_e1 - mp.lambda_c * std::pow(pe / mp.p_at, mp.xi);
+    const S tan_p = std::exp(mp.n_p * lr) * tan_c;
+    const S tan_pt = std::exp(-mp.n_d * lr) * tan_c;
     const S sin_p = sin_of_tan(tan_p), sin_pt = sin_of_tan(tan_pt);
     const S Gm = lode_factor<L>(x, sin_p).g * stress_ratio_of_angle(sin_p);
     const S Dg = mp.A_d * (lode_factor<L>(x, sin_pt).g * stress_ratio_of_angle(sin_pt) - r);
     const S eps = eps_n + dL;
     v.R1 = (p - p_tr + K * dL * Dg) / scale;
     v.R2 = r - Gm * eps / (mp.k_p + eps);
+    const S dr_dL = S(-3) * G / pe;
+    v.dR1_dL = K * (Dg - mp.A_d * dL * dr_dL) / scale;
+    v.dR2_dL = dr_dL - Gm * mp.k_p / ((mp.k_p + eps) * (mp.k_p + eps));
     return v;
   }
 };
@@ -509,7 +524,7 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
   }
   const StressInvariants<S> inv = stress_invariants(trial, deps);
   const detail::ReturnMapResidual<L, S> res{mp, p_tr, inv.q, inv.x, yt.C.K, yt.C.G, st.eps_pd, e1,
-                                            p_tr + mp.p_min};
+                                            p_tr + mp.p_min, std::tan(mp.phi_c), std::log(mp.e_ref / e1)};
   // Start from the trial pressure and one linearised plastic correction.
   S p = p_tr;
   const S denom0 = ddot(yt.n, apply_elastic(yt.C, yt.m)) + yt.Gm * yt.dh;
@@ -525,12 +540,12 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
       converged = true;
       break;
     }
+    // Jacobian: forward difference in p (through e_c, the angles and the Lode factor), exact
+    // in dLambda.
     const S hp = S(1e-7) * (std::fabs(p) + mp.p_min);
-    const S hl = S(1e-7) * (dL + S(1e-9));
     const auto vp = res(p + hp, dL);
-    const auto vl = res(p, dL + hl);
-    const S a11 = (vp.R1 - v.R1) / hp, a12 = (vl.R1 - v.R1) / hl;
-    const S a21 = (vp.R2 - v.R2) / hp, a22 = (vl.R2 - v.R2) / hl;
+    const S a11 = (vp.R1 - v.R1) / hp, a12 = v.dR1_dL;
+    const S a21 = (vp.R2 - v.R2) / hp, a22 = v.dR2_dL;
     const S det = a11 * a22 - a12 * a21;
     if (!(std::fabs(det) > S(0))) break;
     const S dp = (-v.R1 * a22 + v.R2 * a12) / det;
