@@ -72,6 +72,13 @@ std::string TomlTable::position(const toml::node* n) const {
   return where(file_);
 }
 
+long TomlTable::line(const std::string& key) const {
+  const toml::node* n = key.empty() ? nullptr : table_->get(key);
+  if (n && n->source().begin) return static_cast<long>(n->source().begin.line);
+  if (table_->source().begin) return static_cast<long>(table_->source().begin.line);
+  return 0;
+}
+
 void TomlTable::fail(const std::string& key, const std::string& message) const {
   throw InputError(position(table_->get(key)) + "'" + dotted(key) + "': " + message);
 }
