@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -260,7 +261,15 @@ void register_mpm(CLI::App& app) {
   cmd->add_option("--stop-after", o->stop_after, "stop at this simulated time [s] (throughput runs)");
   cmd->add_option("--checkpoint-every", o->checkpoint_every,
                   "write a checkpoint every T seconds of simulated time (overrides output.checkpoint_dt)")
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            double x = 0;
+            std::istringstream is(v);
+            return (is >> x) && is.eof() && x > 0 && std::isfinite(x)
+                       ? std::string()
+                       : "must be a number of seconds > 0, got '" + v + "'";
+          },
+          "SECONDS > 0"));
   cmd->add_flag("--restart", o->restart, "continue the run in --out from its checkpoint");
   cmd->add_option("--png-fields", o->png_fields, "fields of the PNG snapshots (comma separated)");
   cmd->add_flag("--no-png", o->no_png, "do not call scripts/plot_mpm.py");

@@ -83,7 +83,12 @@ mpm::Scene load_scene(const std::string& path) {
     std::string pset = mat.string("parameters");
     const std::filesystem::path rel = std::filesystem::path(path).parent_path() / pset;
     if (pset.find('/') != std::string::npos && std::filesystem::exists(rel)) pset = rel.string();
-    const ParameterSet set = load_parameter_set(pset);
+    ParameterSet set;
+    try {
+      set = load_parameter_set(pset);
+    } catch (const InputError& e) {
+      mat.fail("parameters", e.what());
+    }
     sc.material.name = set.file;
     const std::string model = mat.choice("model", {"phase_transition", "frictional"}, "phase_transition");
     sc.material.model = model == "frictional" ? mpm::ModelKind::Frictional : mpm::ModelKind::PhaseTransition;
@@ -115,7 +120,7 @@ mpm::Scene load_scene(const std::string& path) {
   sc.lines["body"] = bodies.front().line();
   for (auto& b : bodies) {
     sc.lines["body[" + std::to_string(sc.bodies.size()) + "]"] = b.line();
-    for (const char* k : {"min", "max", "polygon_x"}) note(b, k);
+    for (const char* k : {"min", "max", "polygon_x", "polygon_y"}) note(b, k);
     mpm::Body body;
     if (b.has("polygon_x") || b.has("polygon_y")) {
       if (D != 2) b.fail("polygon_x", "polygons need grid.dim = 2");
@@ -147,7 +152,9 @@ mpm::Scene load_scene(const std::string& path) {
     wall.key = w.dotted("side");
     note(w, "side");
     if (wall.position < sc.origin[wall.axis] || wall.position > sc.origin[wall.axis] + sc.size[wall.axis])
-      w.fail("position", "the wall lies outside the grid (grid.origin, grid.size)");
+      w.fail("position", "the wall at " + std::string(1, side[0]) + " = " + std::to_string(wall.position) +
+                             " lies outside the grid [" + std::to_string(sc.origin[wall.axis]) + ", " +
+                             std::to_string(sc.origin[wall.axis] + sc.size[wall.axis]) + "] (grid.origin, grid.size)");
     for (const auto& o : sc.walls)
       if (o.axis == wall.axis && o.at_max == wall.at_max)
         w.fail("side", "a second wall on side " + side + " (first: " + o.key + ") contradicts it");

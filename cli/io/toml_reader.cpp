@@ -184,11 +184,12 @@ std::string TomlTable::string(const std::string& key) {
 
 std::string TomlTable::choice(const std::string& key, const std::vector<std::string>& allowed,
                               const std::string& fallback) {
+  std::string list;
+  for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + ("'" + a + "'");
+  if (fallback.empty() && !has(key)) fail_missing(key, "one of " + list);  // no default: required
   const std::string v = string_or(key, fallback);
   for (const auto& a : allowed)
     if (a == v) return v;
-  std::string list;
-  for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + ("'" + a + "'");
   fail(key, "must be one of " + list + ", got '" + v + "'");
 }
 

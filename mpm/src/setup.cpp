@@ -116,10 +116,12 @@ SceneSetup make_setup(const Scene& sc) {
     }
     for (int d = 0; d < D; ++d) {
       if (!(hi[d] > lo[d])) fail(key, "is empty along axis " + std::to_string(d));
-      if (lo[d] < sc.origin[d] - 1e-12 || hi[d] > sc.origin[d] + sc.size[d] + 1e-12)
-        fail(key, "material [" + fmt(lo[d]) + ", " + fmt(hi[d]) + "] along axis " + std::to_string(d) +
-                      " lies outside the grid [" + fmt(sc.origin[d]) + ", " + fmt(sc.origin[d] + sc.size[d]) +
-                      "] (grid.origin, grid.size)");
+      const bool below = lo[d] < sc.origin[d] - 1e-12;
+      if (below || hi[d] > sc.origin[d] + sc.size[d] + 1e-12)
+        fail(key + (body.is_polygon() ? (d == 0 ? ".polygon_x" : ".polygon_y") : below ? ".min" : ".max"),
+             "material [" + fmt(lo[d]) + ", " + fmt(hi[d]) + "] along axis " + std::to_string(d) +
+                 " lies outside the grid [" + fmt(sc.origin[d]) + ", " + fmt(sc.origin[d] + sc.size[d]) +
+                 "] (grid.origin, grid.size)");
     }
     std::vector<long> cnt(D);
     long total = 1;
@@ -152,7 +154,9 @@ SceneSetup make_setup(const Scene& sc) {
     for (const Wall& w : sc.walls) {
       const double x = pos[w.axis][i];
       if (w.at_max ? x >= w.position : x <= w.position)
-        fail(w.key, "material point at " + fmt(pos[0][i]) + ", " + fmt(pos[1][i]) + " lies beyond this wall");
+        fail(w.key, "material point at " + fmt(pos[0][i]) + ", " + fmt(pos[1][i]) + " lies beyond this wall (" +
+                        std::string(1, char('x' + w.axis)) + (w.at_max ? " >= " : " <= ") + fmt(w.position) +
+                        " is held): move the wall or the material");
     }
     if (sc.base && pos[1][i] <= polyline(sc.base->x, sc.base->y, pos[0][i]))
       fail("base", "material point at " + fmt(pos[0][i]) + ", " + fmt(pos[1][i]) + " lies below the base");
