@@ -244,8 +244,8 @@ Checkpoint decode_checkpoint(std::string_view b) {
     row.t = r.pod<double>();
     row.t_flow = r.pod<double>();
     row.stage = r.pod<std::int32_t>();
-    for (double* v : {&row.m.runout, &row.m.height, &row.m.max_speed, &row.m.kinetic_energy, &row.m.mean_T, &row.m.max_T})
-      *v = r.pod<double>();
+    Measures& m = row.m;
+    for (double* v : {&m.runout, &m.height, &m.max_speed, &m.kinetic_energy, &m.mean_T, &m.max_T}) *v = r.pod<double>();
     s.series.push_back(row);
   }
   for (std::uint64_t k = 0, n = r.count(104, "tracked series"); k < n; ++k) {

@@ -84,7 +84,8 @@ SceneSetup make_setup(const Scene& sc) {
     fail("grid.h", "h = " + fmt(sc.h) + " m gives a grid of " + fmt(nodes_wanted) + " nodes (about " +
                        gb(memory_bytes(D, nodes_wanted, 0, sc.stages.size())) + "); at most " +
                        std::to_string(static_cast<long>(kMaxNodes)) +
-                       " nodes are allowed (grid.size / grid.h + 7 per axis): use a larger grid.h or a smaller grid.size");
+                       " nodes are allowed (grid.size / grid.h + 7 per axis): use a larger grid.h or a smaller "
+                       "grid.size");
   for (int d = 0; d < D; ++d) {
     const double cells = sc.size[d] / sc.h;
     if (std::fabs(cells - std::round(cells)) > 1e-6)
