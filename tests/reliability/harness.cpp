@@ -38,9 +38,7 @@ std::string slurp(const std::string& path) {
 }
 }  // namespace
 
-Outcome run_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args,
-               double timeout_s) {
-  Outcome o;
+int start_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args) {
   const std::string out_path = dir + "/../" + "stdout.txt", err_path = dir + "/../" + "stderr.txt";
   const pid_t pid = ::fork();
   if (pid == 0) {
@@ -60,6 +58,12 @@ Outcome run_in(const std::string& dir, const std::string& program, const std::ve
     ::execv(program.c_str(), av.data());
     ::_exit(127);
   }
+  return pid;
+}
+
+Outcome finish(int pid, const std::string& dir, double timeout_s) {
+  Outcome o;
+  const std::string out_path = dir + "/../" + "stdout.txt", err_path = dir + "/../" + "stderr.txt";
   const auto t0 = std::chrono::steady_clock::now();
   int status = 0;
   for (;;) {
@@ -82,6 +86,11 @@ Outcome run_in(const std::string& dir, const std::string& program, const std::ve
   o.out = slurp(out_path);
   o.err = slurp(err_path);
   return o;
+}
+
+Outcome run_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args,
+               double timeout_s) {
+  return finish(start_in(dir, program, args), dir, timeout_s);
 }
 
 }  // namespace reliability
