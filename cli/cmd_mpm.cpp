@@ -61,7 +61,8 @@ std::uint64_t scene_hash(const mpm::Scene& sc) {
 volatile std::sig_atomic_t g_signal = 0;
 void on_signal(int sig) { g_signal = sig; }
 
-// Installs the handlers for its lifetime.
+// Installs the handlers for its lifetime. SA_RESETHAND: a second Ctrl-C stops at once (the last
+// complete checkpoint stays valid).
 class SignalGuard {
  public:
   SignalGuard() {
@@ -69,7 +70,7 @@ class SignalGuard {
     struct sigaction sa {};
     sa.sa_handler = on_signal;
     sigemptyset(&sa.sa_mask);
-    sa.sa_flags = SA_RESTART;
+    sa.sa_flags = SA_RESTART | SA_RESETHAND;
     sigaction(SIGINT, &sa, &old_int_);
     sigaction(SIGTERM, &sa, &old_term_);
   }

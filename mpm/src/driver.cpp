@@ -317,7 +317,7 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
     write_series_csv(opt.out_dir, sc, sum);  // readable series up to the checkpoint
   };
 
-  bool stop = false;
+  bool stop = t >= t_stop - 1e-12;  // a resumed run may already be at --stop-after
   for (; si < static_cast<int>(sc.stages.size()) && !stop; ++si) {
     const Stage& st = sc.stages[si];
     runner.set_stage(si, st.damping, st.flip.value_or(sc.flip));
@@ -405,7 +405,7 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
       for (const auto& [x, y] : free_surface(sum.ok ? fr : last_good, su)) c << x << ',' << y << '\n';
       write_text(opt.out_dir + "/profile_final.csv", c.str());
     }
-    if (complete) {  // nothing left to continue
+    if (complete && t >= t_total * (1 - 1e-12)) {  // nothing left to continue
       std::error_code ec;
       std::filesystem::remove(ckpt_path, ec);
       sum.checkpoint.clear();

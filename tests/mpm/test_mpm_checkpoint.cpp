@@ -150,11 +150,11 @@ Scene short_column(ModelKind model, bool adaptive) {
 }
 
 RunSummary run_to(const SceneSetup& su, Runner& r, const fs::path& out, const volatile std::sig_atomic_t* flag,
-                  const Checkpoint* resume = nullptr) {
+                  const Checkpoint* resume = nullptr, double checkpoint_dt = 0.01) {
   RunOptions opt;
   opt.out_dir = out.string();
   opt.progress = false;
-  opt.checkpoint_dt = 0.01;
+  opt.checkpoint_dt = checkpoint_dt;
   opt.scene_hash = 7;
   opt.interrupt = flag;
   opt.resume = resume;
@@ -294,6 +294,12 @@ TEST(MpmRestart, InterruptedRunsResumeBitwise) {
     ASSERT_FALSE(fs::exists(ref / kCheckpointFile));
     const auto want = files_in(ref);
     ASSERT_GE(want.size(), 8u);
+    {  // checkpoints change nothing in the run
+      const fs::path plain = scratch("plain");
+      auto rp = make_cpu_runner(su);
+      ASSERT_TRUE(run_to(su, *rp, plain, nullptr, nullptr, 0.0).ok);
+      EXPECT_TRUE(files_in(plain) == want);
+    }
     for (const long k : {1L, 20L, 50L, 100L, 101L, s0.steps - 1}) {
       SCOPED_TRACE("adaptive " + std::to_string(adaptive) + ", interrupted after step " + std::to_string(k));
       const fs::path out = scratch("k" + std::to_string(k));
@@ -354,4 +360,28 @@ TEST(MpmRestart, ChainedRestartsResumeBitwise) {
   ASSERT_TRUE(s3.ok) << s3.message;
   EXPECT_EQ(s3.stats.updates, s0.stats.updates);
   EXPECT_EQ(files_in(out), files_in(ref));
+}
+
+// A run stopped early by --stop-after keeps its last checkpoint (the scene is not done); one
+// that finishes the scene removes it.
+TEST(MpmRestart, StopAfterKeepsTheCheckpoint) {
+  const SceneSetup su = make_setup(short_column(ModelKind::Frictional, false));
+  const fs::path out = scratch("stop_after");
+  auto r = make_cpu_runner(su);
+  RunOptions opt;
+  opt.out_dir = out.string();
+  opt.progress = false;
+  opt.checkpoint_dt = 0.01;
+  opt.stop_after = 0.035;
+  ASSERT_TRUE(run(su, *r, opt).ok);
+  ASSERT_TRUE(fs::exists(out / kCheckpointFile));
+  const Checkpoint c = read_checkpoint((out / kCheckpointFile).string());
+  EXPECT_NEAR(c.loop.t, 0.03, 1e-9);
+  auto r2 = make_cpu_runner(su);
+  opt.stop_after = -1;
+  opt.resume = &c;
+  const RunSummary s = run(su, *r2, opt);
+  ASSERT_TRUE(s.ok) << s.message;
+  EXPECT_NEAR(s.t_end, 0.06, 1e-12);
+  EXPECT_FALSE(fs::exists(out / kCheckpointFile));
 }

@@ -17,7 +17,7 @@ struct RunOptions {
   bool progress = true;   // progress line on stderr
   double stop_after = -1; // > 0: stop at this simulated time (short CPU throughput runs)
   // Checkpoints (out_dir/checkpoint.bin, needs out_dir): every checkpoint_dt of simulated time
-  // (<= 0: only when interrupted); removed when the run completes.
+  // (<= 0: only when interrupted); removed when the scene's last stage is done.
   double checkpoint_dt = 0;
   std::uint64_t scene_hash = 0;          // stored in checkpoints (see check_checkpoint)
   const Checkpoint* resume = nullptr;    // continue from this state (checked by the caller)
