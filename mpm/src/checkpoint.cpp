@@ -29,7 +29,7 @@ class Writer {
   }
   void doubles(const std::vector<double>& v) {
     pod(static_cast<std::uint64_t>(v.size()));
-    buf_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+    if (!v.empty()) buf_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
   }
   void str(const std::string& s) {
     pod(static_cast<std::uint64_t>(s.size()));
@@ -56,7 +56,7 @@ class Reader {
     const std::uint64_t n = pod<std::uint64_t>();
     if (n > (b_.size() - at_) / sizeof(double)) fail(std::string(what) + " claims more values than the file holds");
     std::vector<double> v(n);
-    std::memcpy(v.data(), b_.data() + at_, n * sizeof(double));
+    if (n > 0) std::memcpy(v.data(), b_.data() + at_, n * sizeof(double));  // data() may be null when empty
     at_ += n * sizeof(double);
     return v;
   }
