@@ -101,8 +101,20 @@ std::map<std::string, std::string> files_in(const fs::path& dir) {
   return out;
 }
 
+// This process's scratch folder; removed at exit when every test passed.
+const fs::path kScratch = fs::temp_directory_path() / ("granflow_ckpt_" + std::to_string(::getpid()));
+
+class ScratchCleanup : public ::testing::Environment {
+ public:
+  void TearDown() override {
+    std::error_code ec;
+    if (!::testing::UnitTest::GetInstance()->Failed()) fs::remove_all(kScratch, ec);
+  }
+};
+const auto* const kCleanup = ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
+
 fs::path scratch(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("granflow_ckpt_" + std::to_string(::getpid())) / name;
+  const fs::path p = kScratch / name;
   fs::remove_all(p);
   fs::create_directories(p);
   return p;

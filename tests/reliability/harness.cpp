@@ -5,8 +5,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <gtest/gtest.h>
+
 #include <chrono>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -27,6 +30,31 @@ std::string drop_line(const std::string& base, const std::string& line_start) {
   if (at == std::string::npos) return kEditMissing + line_start;
   const auto end = base.find('\n', at + 1);
   return base.substr(0, at) + (end == std::string::npos ? "\n" : base.substr(end));
+}
+
+namespace {
+
+class ScratchCleanup : public ::testing::Environment {
+ public:
+  explicit ScratchCleanup(std::string root) : root_(std::move(root)) {}
+  void TearDown() override {
+    std::error_code ec;
+    if (!::testing::UnitTest::GetInstance()->Failed()) std::filesystem::remove_all(root_, ec);
+  }
+
+ private:
+  std::string root_;
+};
+
+}  // namespace
+
+std::string scratch_root(const std::string& prefix) {
+  static std::string root;
+  if (root.empty()) {
+    root = (std::filesystem::path(::testing::TempDir()) / (prefix + "_" + std::to_string(::getpid()))).string();
+    ::testing::AddGlobalTestEnvironment(new ScratchCleanup(root));
+  }
+  return root;
 }
 
 namespace {

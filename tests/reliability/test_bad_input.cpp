@@ -8,8 +8,6 @@
 #include <set>
 #include <sstream>
 
-#include <unistd.h>
-
 #include "harness.hpp"
 
 namespace reliability {
@@ -30,9 +28,7 @@ std::string slurp(const fs::path& p) {
 }
 
 fs::path fresh_dir(const std::string& name) {
-  // per process: worktrees on one machine may run this suite at the same time
-  const fs::path root =
-      fs::path(::testing::TempDir()) / ("granflow_bad_input_" + std::to_string(::getpid())) / name;
+  const fs::path root = fs::path(scratch_root("granflow_bad_input")) / name;
   fs::remove_all(root);
   fs::create_directories(root / "work");
   return root / "work";

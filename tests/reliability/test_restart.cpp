@@ -50,7 +50,7 @@ std::string test_scene() {
 struct Work {
   fs::path dir;
   explicit Work(const std::string& name) {
-    dir = fs::path(::testing::TempDir()) / ("granflow_restart_" + std::to_string(::getpid())) / name / "work";
+    dir = fs::path(scratch_root("granflow_restart")) / name / "work";
     fs::remove_all(dir.parent_path());
     fs::create_directories(dir);
     const std::string scene = test_scene();
