@@ -1,14 +1,22 @@
 // granflow mpm <scene.toml>: run a scene (CPU twin or CUDA) and write VTU/PVD frames, CSV
 // series, the final free surface and PNG snapshots; granflow bench mpm: per-phase timings.
-#include <chrono>
+#include <signal.h>
+
 #include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
 #include <cstdio>
-#include <memory>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
 #include <string>
 
+#include <granflow/mpm/checkpoint.hpp>
 #include <granflow/mpm/driver.hpp>
 
 #include "commands.hpp"
@@ -20,14 +28,62 @@ namespace granflow::cli {
 
 namespace {
 
+namespace fs = std::filesystem;
+
 mpm::SceneSetup setup_from_file(const std::string& file) {
   const mpm::Scene sc = io::load_scene(file);
   try {
     return mpm::make_setup(sc);
   } catch (const mpm::SceneError& e) {
-    throw io::InputError(io::where(file) + e.what());
+    // the line of the key, else of the table holding it ("body[0].min" -> "body[0]")
+    long line = 0;
+    for (std::string k = e.key(); !k.empty() && line == 0;) {
+      const auto it = sc.lines.find(k);
+      if (it != sc.lines.end()) line = it->second;
+      const auto cut = k.find_last_of(".[");
+      k = cut == std::string::npos ? "" : k.substr(0, cut);
+    }
+    throw io::InputError(io::where(file, line) + "'" + e.key() + "': " + (e.what() + e.key().size() + 2));
   }
 }
+
+// What a checkpoint must have been written for: the scene file's bytes and the parameter
+// set's values (as granflow writes them, so comments and layout do not count).
+std::uint64_t scene_hash(const mpm::Scene& sc) {
+  std::ifstream in(sc.file, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  const std::uint64_t h = mpm::fnv1a(text.str());
+  return mpm::fnv1a(io::format_parameter_set(io::load_parameter_set(sc.material.name)), h);
+}
+
+// Set by SIGINT/SIGTERM; the time loop polls it after every step.
+volatile std::sig_atomic_t g_signal = 0;
+void on_signal(int sig) { g_signal = sig; }
+
+// Installs the handlers for its lifetime. SA_RESETHAND: a second Ctrl-C stops at once (the last
+// complete checkpoint stays valid).
+class SignalGuard {
+ public:
+  SignalGuard() {
+    g_signal = 0;
+    struct sigaction sa {};
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART | SA_RESETHAND;
+    sigaction(SIGINT, &sa, &old_int_);
+    sigaction(SIGTERM, &sa, &old_term_);
+  }
+  ~SignalGuard() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+  SignalGuard(const SignalGuard&) = delete;
+  SignalGuard& operator=(const SignalGuard&) = delete;
+
+ private:
+  struct sigaction old_int_ {}, old_term_ {};
+};
 
 std::unique_ptr<mpm::Runner> make_runner(const mpm::SceneSetup& su, const std::string& backend) {
   return backend == "cuda" ? mpm::make_cuda_runner(su) : mpm::make_cpu_runner(su);
@@ -41,19 +97,54 @@ std::string locate_plot_script() {
 
 struct MpmOptions {
   std::string scene, out, backend = "cpu", png_fields = "p,T,eps_pd";
-  bool force = false, no_png = false, quiet = false;
+  bool force = false, no_png = false, quiet = false, restart = false;
   double stop_after = -1;
+  double checkpoint_every = -1;  // > 0 overrides output.checkpoint_dt
 };
+
+// --restart: the checkpoint in `out`, read and checked against the scene (input errors).
+mpm::Checkpoint load_restart(const MpmOptions& o, const std::string& out, const mpm::SceneSetup& su,
+                             std::uint64_t hash) {
+  if (o.force)
+    throw io::InputError("--restart continues the run in '" + out +
+                         "' and --force would delete it first: give one of them");
+  std::error_code ec;
+  if (!fs::is_directory(out, ec))
+    throw io::InputError("--restart: output directory '" + out +
+                         "' does not exist: nothing to continue (start the run without --restart)");
+  const std::string path = out + "/" + mpm::kCheckpointFile;
+  if (!fs::exists(path, ec))
+    throw io::InputError(io::where(path) +
+                         "no checkpoint to restart from (one is written every output.checkpoint_dt or "
+                         "--checkpoint-every seconds of simulated time and when a run is interrupted; a run that "
+                         "completed removes it)");
+  try {
+    mpm::Checkpoint c = mpm::read_checkpoint(path);
+    mpm::check_checkpoint(c, su, hash);
+    return c;
+  } catch (const mpm::CheckpointError& e) {
+    throw io::InputError(io::where(path) + e.what());
+  }
+}
 
 void run_mpm(const MpmOptions& o) {
   const mpm::SceneSetup su = setup_from_file(o.scene);
   std::string out = o.out;
-  if (out.empty()) out = "mpm_out/" + std::filesystem::path(o.scene).stem().string();
-  if (std::filesystem::exists(out) && !std::filesystem::is_empty(out) && !o.force)
-    throw io::InputError("output directory '" + out + "' exists and is not empty; use --force to overwrite it");
-  if (o.force && std::filesystem::exists(out)) {
-    for (const auto& e : std::filesystem::directory_iterator(out))
-      if (e.is_regular_file()) std::filesystem::remove(e.path());
+  if (out.empty()) out = "mpm_out/" + fs::path(o.scene).stem().string();
+  const std::uint64_t hash = scene_hash(su.scene);
+  std::optional<mpm::Checkpoint> resume;
+  if (o.restart) {
+    resume = load_restart(o, out, su, hash);
+    for (const auto& e : fs::directory_iterator(out))  // left by a killed run
+      if (e.is_regular_file() && e.path().extension() == ".tmp") fs::remove(e.path());
+  } else if (fs::exists(out) && !fs::is_empty(out) && !o.force) {
+    const bool ck = fs::exists(out + "/" + mpm::kCheckpointFile);
+    throw io::InputError("output directory '" + out + "' exists and is not empty; use --force to overwrite it" +
+                         (ck ? " or --restart to continue from its checkpoint" : ""));
+  }
+  if (o.force && fs::exists(out)) {
+    for (const auto& e : fs::directory_iterator(out))
+      if (e.is_regular_file()) fs::remove(e.path());
   }
   auto runner = make_runner(su, o.backend);
   const mpm::Scene& sc = su.scene;
@@ -62,11 +153,38 @@ void run_mpm(const MpmOptions& o) {
                sc.material.model == mpm::ModelKind::PhaseTransition ? "phase-transition model" : "frictional-only model",
                sc.adaptive ? "adaptive dt" : ("dt = " + std::to_string(sc.dt) + " s").c_str(),
                sc.shape == mpm::ShapeKind::Linear ? "linear" : "quadratic B-spline", runner->device().c_str());
+  if (resume)
+    std::fprintf(stderr, "  restarting at t = %.6g s (step %ld) from %s/%s\n", resume->loop.t, resume->loop.step,
+                 out.c_str(), mpm::kCheckpointFile);
   mpm::RunOptions ro;
   ro.out_dir = out;
   ro.progress = !o.quiet;
   ro.stop_after = o.stop_after;
-  const mpm::RunSummary s = mpm::run(su, *runner, ro);
+  ro.checkpoint_dt = o.checkpoint_every > 0 ? o.checkpoint_every : sc.output.checkpoint_dt;
+  ro.scene_hash = hash;
+  ro.resume = resume ? &*resume : nullptr;
+  ro.interrupt = &g_signal;
+  mpm::RunSummary s;
+  {
+    SignalGuard guard;
+    s = mpm::run(su, *runner, ro);
+  }
+  if (s.interrupted) {
+    const int sig = s.interrupted;
+    std::string again = "granflow mpm " + o.scene + " --out " + out + " --restart";
+    if (o.backend != "cpu") again += " --backend " + o.backend;
+    if (o.checkpoint_every > 0) {
+      std::ostringstream os;
+      os << " --checkpoint-every " << o.checkpoint_every;
+      again += os.str();
+    }
+    std::fprintf(stderr,
+                 "granflow: interrupted by %s at t = %.6g s (step %ld); wrote the checkpoint %s and the series so far "
+                 "(runout.csv, tracked.csv); continue with: %s\n",
+                 sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : ("signal " + std::to_string(sig)).c_str(),
+                 s.t_end, s.steps, s.checkpoint.c_str(), again.c_str());
+    throw ExitStatus{128 + sig};
+  }
   std::printf("scene: %s\nparticles: %ld\nsteps: %ld\nsimulated: %.6g s\nwall: %.3f s\n", sc.name.c_str(),
               runner->particles(), s.steps, s.t_end, s.wall_s);
   std::printf("particle-updates/s: %.4g\n", s.wall_s > 0 ? runner->particles() * double(s.steps) / s.wall_s : 0.0);
@@ -84,7 +202,9 @@ void run_mpm(const MpmOptions& o) {
   std::printf("final run-out: %.4f m\nfinal height: %.4f m\nmax speed: %.4g m/s\n", s.final.runout, s.final.height,
               s.final.max_speed);
   std::printf("output: %s (frames.pvd, runout.csv, tracked.csv, profile_final.csv)\n", out.c_str());
-  if (!o.no_png) {
+  if (g_signal != 0) {
+    std::fprintf(stderr, "PNG snapshots skipped: interrupted after the run had completed\n");
+  } else if (!o.no_png) {
     const std::string script = locate_plot_script();
     if (script.empty()) {
       std::fprintf(stderr, "PNG snapshots skipped: scripts/plot_mpm.py not found\n");
@@ -140,6 +260,18 @@ void register_mpm(CLI::App& app) {
   cmd->add_flag("--force", o->force, "overwrite an existing output directory");
   cmd->add_option("--backend", o->backend, "cpu (OpenMP twin) or cuda")->check(CLI::IsMember({"cpu", "cuda"}));
   cmd->add_option("--stop-after", o->stop_after, "stop at this simulated time [s] (throughput runs)");
+  cmd->add_option("--checkpoint-every", o->checkpoint_every,
+                  "write a checkpoint every T seconds of simulated time (overrides output.checkpoint_dt)")
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            double x = 0;
+            std::istringstream is(v);
+            return (is >> x) && is.eof() && x > 0 && std::isfinite(x)
+                       ? std::string()
+                       : "must be a number of seconds > 0, got '" + v + "'";
+          },
+          "SECONDS > 0"));
+  cmd->add_flag("--restart", o->restart, "continue the run in --out from its checkpoint");
   cmd->add_option("--png-fields", o->png_fields, "fields of the PNG snapshots (comma separated)");
   cmd->add_flag("--no-png", o->no_png, "do not call scripts/plot_mpm.py");
   cmd->add_flag("--quiet", o->quiet, "no progress line");

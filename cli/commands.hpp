@@ -5,6 +5,11 @@
 
 namespace granflow::cli {
 
+// Thrown by a command that has printed its own message: granflow exits with this status.
+struct ExitStatus {
+  int code;
+};
+
 void register_element(CLI::App& app);
 void register_figures(CLI::App& app);
 void register_calibrate(CLI::App& app);

@@ -37,6 +37,8 @@ int main(int argc, char** argv) {
     }
     std::cerr << "; options: granflow [<command>] --help\n";
     return e.get_exit_code() == 0 ? 2 : e.get_exit_code();
+  } catch (const granflow::cli::ExitStatus& e) {
+    return e.code;
   } catch (const granflow::io::InputError& e) {
     std::cerr << "granflow: error: " << e.what() << "\n";
     return 2;

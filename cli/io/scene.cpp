@@ -36,6 +36,8 @@ mpm::Scene load_scene(const std::string& path) {
   mpm::Scene sc;
   sc.file = path;
   sc.name = root.string_or("name", std::filesystem::path(path).stem().string());
+  // lines of the keys make_setup's checks name, so its messages can point into the file
+  auto note = [&sc](const TomlTable& t, const std::string& key) { sc.lines[t.dotted(key)] = t.line(key); };
 
   TomlTable grid = root.table("grid");
   sc.dim = static_cast<int>(grid.integer_or("dim", 2, 2, 3));
@@ -45,6 +47,7 @@ mpm::Scene load_scene(const std::string& path) {
   sc.h = grid.number("h", Bounds::positive());
   sc.shape = grid.choice("shape", {"linear", "quadratic"}, "linear") == "linear" ? mpm::ShapeKind::Linear
                                                                                   : mpm::ShapeKind::QuadraticBSpline;
+  for (const char* k : {"dim", "origin", "size", "h"}) note(grid, k);
   grid.finish();
 
   TomlTable part = root.table("particles");
@@ -54,12 +57,14 @@ mpm::Scene load_scene(const std::string& path) {
     part.fail("per_cell", "must be n^" + std::to_string(D) + " (a regular lattice: 1, 4, 9, 16 in 2D), got " +
                               std::to_string(ppc));
   sc.ppc_axis = axis;
+  note(part, "per_cell");
   part.finish();
 
   TomlTable time = root.table("time");
   sc.dt = time.number("dt", Bounds::positive());
   sc.adaptive = time.boolean_or("adaptive", false);
   sc.cfl = time.number_or("cfl", 0.5, Bounds{0.0, 1.0, true, false});
+  note(time, "dt");
   time.finish();
 
   if (auto s = root.optional_table("solver")) {
@@ -78,7 +83,12 @@ mpm::Scene load_scene(const std::string& path) {
     std::string pset = mat.string("parameters");
     const std::filesystem::path rel = std::filesystem::path(path).parent_path() / pset;
     if (pset.find('/') != std::string::npos && std::filesystem::exists(rel)) pset = rel.string();
-    const ParameterSet set = load_parameter_set(pset);
+    ParameterSet set;
+    try {
+      set = load_parameter_set(pset);
+    } catch (const InputError& e) {
+      mat.fail("parameters", e.what());
+    }
     sc.material.name = set.file;
     const std::string model = mat.choice("model", {"phase_transition", "frictional"}, "phase_transition");
     sc.material.model = model == "frictional" ? mpm::ModelKind::Frictional : mpm::ModelKind::PhaseTransition;
@@ -101,12 +111,16 @@ mpm::Scene load_scene(const std::string& path) {
   if (auto is = root.optional_table("initial_stress")) {
     sc.initial.geostatic = is->choice("kind", {"zero", "geostatic"}, "zero") == "geostatic";
     sc.initial.K0 = is->number_or("K0", -1, Bounds{0.0, 3.0, true, false});
+    note(*is, "K0");
     is->finish();
   }
 
   auto bodies = root.array_of_tables("body");
   if (bodies.empty()) root.fail("body", "at least one [[body]] (the material region) is required");
+  sc.lines["body"] = bodies.front().line();
   for (auto& b : bodies) {
+    sc.lines["body[" + std::to_string(sc.bodies.size()) + "]"] = b.line();
+    for (const char* k : {"min", "max", "polygon_x", "polygon_y"}) note(b, k);
     mpm::Body body;
     if (b.has("polygon_x") || b.has("polygon_y")) {
       if (D != 2) b.fail("polygon_x", "polygons need grid.dim = 2");
@@ -136,8 +150,11 @@ mpm::Scene load_scene(const std::string& path) {
                                                         : sc.origin[wall.axis]);
     wall.no_slip = w.choice("type", {"no_slip", "free_slip"}, "no_slip") == "no_slip";
     wall.key = w.dotted("side");
+    note(w, "side");
     if (wall.position < sc.origin[wall.axis] || wall.position > sc.origin[wall.axis] + sc.size[wall.axis])
-      w.fail("position", "the wall lies outside the grid (grid.origin, grid.size)");
+      w.fail("position", "the wall at " + std::string(1, side[0]) + " = " + std::to_string(wall.position) +
+                             " lies outside the grid [" + std::to_string(sc.origin[wall.axis]) + ", " +
+                             std::to_string(sc.origin[wall.axis] + sc.size[wall.axis]) + "] (grid.origin, grid.size)");
     for (const auto& o : sc.walls)
       if (o.axis == wall.axis && o.at_max == wall.at_max)
         w.fail("side", "a second wall on side " + side + " (first: " + o.key + ") contradicts it");
@@ -147,6 +164,7 @@ mpm::Scene load_scene(const std::string& path) {
 
   if (auto b = root.optional_table("base")) {
     if (D != 2) b->fail("x", "an inclined base needs grid.dim = 2");
+    sc.lines["base"] = b->line();
     mpm::BaseLine base;
     base.x = increasing(*b, "x");
     base.y = b->numbers("y", Bounds::any(), false);
@@ -173,6 +191,8 @@ mpm::Scene load_scene(const std::string& path) {
       if (nz == 0) g->fail("normal", "must not be zero");
       if (gate.normal_only && nz != 1)
         g->fail("hold", "\"normal\" needs an axis-aligned normal; use \"all\" for an inclined gate");
+      note(*g, "normal");
+      note(*g, "hold");
       g->finish();
       st.gate = gate;
     }
@@ -201,6 +221,7 @@ mpm::Scene load_scene(const std::string& path) {
     sc.output.series_dt = o->number_or("series_dt", 1e-3, Bounds::positive());
     sc.output.binary = o->choice("format", {"binary", "ascii"}, "binary") == "binary";
     sc.output.frames_in_stages = o->boolean_or("stage_frames", true);
+    sc.output.checkpoint_dt = o->number_or("checkpoint_dt", 0.0, Bounds::positive());
     const double last = sc.stages.back().duration;
     for (double t : sc.output.times)
       if (t > last * (1 + 1e-12))

@@ -72,6 +72,13 @@ std::string TomlTable::position(const toml::node* n) const {
   return where(file_);
 }
 
+long TomlTable::line(const std::string& key) const {
+  const toml::node* n = key.empty() ? nullptr : table_->get(key);
+  if (n && n->source().begin) return static_cast<long>(n->source().begin.line);
+  if (table_->source().begin) return static_cast<long>(table_->source().begin.line);
+  return 0;
+}
+
 void TomlTable::fail(const std::string& key, const std::string& message) const {
   throw InputError(position(table_->get(key)) + "'" + dotted(key) + "': " + message);
 }
@@ -177,11 +184,12 @@ std::string TomlTable::string(const std::string& key) {
 
 std::string TomlTable::choice(const std::string& key, const std::vector<std::string>& allowed,
                               const std::string& fallback) {
+  std::string list;
+  for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + ("'" + a + "'");
+  if (fallback.empty() && !has(key)) fail_missing(key, "one of " + list);  // no default: required
   const std::string v = string_or(key, fallback);
   for (const auto& a : allowed)
     if (a == v) return v;
-  std::string list;
-  for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + ("'" + a + "'");
   fail(key, "must be one of " + list + ", got '" + v + "'");
 }
 

@@ -58,6 +58,8 @@ class TomlTable {
 
   [[noreturn]] void fail(const std::string& key, const std::string& message) const;
   [[noreturn]] void fail_missing(const std::string& key, const std::string& what) const;
+  // Line of key, or of this table when key is empty or absent (0: unknown).
+  long line(const std::string& key = "") const;
   std::string dotted(const std::string& key) const { return prefix_.empty() ? key : prefix_ + "." + key; }
   const std::string& file() const { return file_; }
   const toml::table& raw() const { return *table_; }

@@ -142,6 +142,10 @@ class CpuRunner final : public Runner {
     detail::make_frame<D, S, Model>(part_, n_, sp_.mp, out, diagnostics, subset);
   }
   void download(HostParticles& out) override { detail::unpack<D, S, Model::kCollisional>(part_, n_, out); }
+  void upload(const HostParticles& in) override {
+    detail::check_upload(in, n_, D);
+    part_ = detail::pack<D, S, Model::kCollisional>(in);
+  }
   PhaseTimes times() const override { return times_; }
   UpdateStats update_stats() const override { return stats_; }
   void reset_times() override { times_ = PhaseTimes{}; }

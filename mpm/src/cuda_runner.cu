@@ -193,6 +193,11 @@ class CudaRunner final : public Runner {
   void download(HostParticles& out) override {
     detail::unpack<D, S, Model::kCollisional>(download_raw(), n_, out);
   }
+  void upload(const HostParticles& in) override {
+    detail::check_upload(in, n_, D);
+    const std::vector<S> host = detail::pack<D, S, Model::kCollisional>(in);
+    check(cudaMemcpy(part_, host.data(), host.size() * sizeof(S), cudaMemcpyHostToDevice), "upload particles");
+  }
   PhaseTimes times() const override { return times_; }
   void reset_times() override { times_ = PhaseTimes{}; }
   std::string device() const override {

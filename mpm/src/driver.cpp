@@ -9,6 +9,7 @@
 #include <limits>
 #include <sstream>
 
+#include <granflow/mpm/checkpoint.hpp>
 #include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/kernels.hpp>
 
@@ -159,6 +160,37 @@ void write_text(const std::string& path, const std::string& text) {
 
 }  // namespace
 
+namespace {
+
+UpdateStats operator+(UpdateStats a, const UpdateStats& b) {
+  a.updates += b.updates;
+  a.substeps += b.substeps;
+  a.substep_limit += b.substep_limit;
+  a.tension_cutoff += b.tension_cutoff;
+  a.vs_clamped += b.vs_clamped;
+  a.separated += b.separated;
+  return a;
+}
+
+void write_series_csv(const std::string& dir, const Scene& sc, const RunSummary& sum) {
+  std::ostringstream a;
+  a.precision(8);
+  a << "t,t_flow,stage,runout,height,max_speed,kinetic_energy,mean_T,max_T\n";
+  for (const auto& r : sum.series)
+    a << r.t << ',' << r.t_flow << ',' << r.stage << ',' << r.m.runout << ',' << r.m.height << ',' << r.m.max_speed
+      << ',' << r.m.kinetic_energy << ',' << r.m.mean_T << ',' << r.m.max_T << '\n';
+  write_text(dir + "/runout.csv", a.str());
+  std::ostringstream b;
+  b.precision(8);
+  b << "t,t_flow,name,x,y,vx,vy,p,q,eps_pd,T,eta_c,K_col\n";
+  for (const auto& r : sum.tracks)
+    b << r.t << ',' << r.t_flow << ',' << sc.tracks[r.track].name << ',' << r.x << ',' << r.y << ',' << r.vx << ','
+      << r.vy << ',' << r.p << ',' << r.q << ',' << r.eps_pd << ',' << r.T << ',' << r.eta_c << ',' << r.K_col << '\n';
+  write_text(dir + "/tracked.csv", b.str());
+}
+
+}  // namespace
+
 RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
   using Clock = std::chrono::steady_clock;
   const Scene& sc = su.scene;
@@ -166,6 +198,7 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
   sum.device = runner.device();
   const bool files = !opt.out_dir.empty();
   if (files) std::filesystem::create_directories(opt.out_dir);
+  const std::string ckpt_path = files ? opt.out_dir + "/" + kCheckpointFile : "";
   std::vector<std::pair<double, std::string>> pvd;
   int frame_no = 0;
   const std::vector<double>& mass = su.particles.m;
@@ -212,23 +245,90 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
   double t = 0;
   long step = 0;
   double dt = sc.adaptive ? std::min(sc.dt, sc.cfl * su.dt_estimate) : sc.dt;
+  int si = 0;
   double t_stage_end = 0;
-  size_t next_out = 0;
+  long next_out = 0;
   std::vector<double> out_times = sc.output.times;
   std::sort(out_times.begin(), out_times.end());
-  sample(0.0, 0);
-  write_frame(full_frame(), 0.0, "");
   double next_sample = sc.output.series_dt;
-  bool stop = false;
-  for (int si = 0; si < static_cast<int>(sc.stages.size()) && !stop; ++si) {
+  UpdateStats stats_before;  // steps before the checkpoint resumed from
+  double wall_before = 0;
+  bool resumed = false;
+  if (opt.resume) {
+    const LoopState& ls = opt.resume->loop;
+    runner.upload(opt.resume->particles);
+    t = ls.t;
+    step = ls.step;
+    dt = ls.dt;
+    si = ls.stage;
+    t_stage_end = ls.t_stage_end;
+    next_sample = ls.next_sample;
+    next_out = ls.next_out;
+    frame_no = ls.frame_no;
+    pvd = ls.pvd;
+    sum.series = ls.series;
+    sum.tracks = ls.tracks;
+    last_good = ls.last_good;
+    last_good_t = ls.last_good_t;
+    sum.consolidation = ls.consolidation;
+    stats_before = ls.stats;
+    wall_before = ls.wall_s;
+    sum.final = sum.series.back().m;
+    runner.frame(fr, false, su.tracked);  // the current state; a sample at t would have given it
+    resumed = true;
+  } else {
+    sample(0.0, 0);
+    write_frame(full_frame(), 0.0, "");
+  }
+  const long step0 = step;
+  const double t0 = t;
+  auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - wall0).count(); };
+
+  // Checkpoints land on no particular time (the steps stay those of a run without them).
+  const double ck_dt = files ? opt.checkpoint_dt : 0.0;
+  auto next_checkpoint_after = [&](double x) {
+    return ck_dt > 0 ? (std::floor(x / ck_dt + 1e-9) + 1) * ck_dt : std::numeric_limits<double>::infinity();
+  };
+  double next_ckpt = next_checkpoint_after(t);
+  auto save = [&] {
+    Checkpoint c;
+    c.scene_hash = opt.scene_hash;
+    runner.download(c.particles);
+    LoopState& ls = c.loop;
+    ls.t = t;
+    ls.step = step;
+    ls.dt = dt;
+    ls.stage = si;
+    ls.t_stage_end = t_stage_end;
+    ls.next_sample = next_sample;
+    ls.next_out = next_out;
+    ls.frame_no = frame_no;
+    ls.pvd = pvd;
+    ls.series = sum.series;
+    ls.tracks = sum.tracks;
+    ls.last_good = last_good;
+    ls.last_good.subset.clear();
+    ls.last_good_t = last_good_t;
+    ls.consolidation = sum.consolidation;
+    ls.stats = stats_before + runner.update_stats();
+    ls.wall_s = wall_before + elapsed();
+    write_checkpoint(ckpt_path, c);
+    sum.checkpoint = ckpt_path;
+    write_series_csv(opt.out_dir, sc, sum);  // readable series up to the checkpoint
+  };
+
+  bool stop = t >= t_stop - 1e-12;  // a resumed run may already be at --stop-after
+  for (; si < static_cast<int>(sc.stages.size()) && !stop; ++si) {
     const Stage& st = sc.stages[si];
     runner.set_stage(si, st.damping, st.flip.value_or(sc.flip));
-    t_stage_end += st.duration;
+    if (!resumed) t_stage_end += st.duration;  // a checkpoint holds the end of its stage
+    resumed = false;
     while (t < t_stage_end - 1e-12 * t_stage_end && !stop) {
       double h = dt;
       // land on stage ends, samples and frames exactly
       double next_event = std::min(t_stage_end, next_sample);
-      if (next_out < out_times.size()) next_event = std::min(next_event, t_release + out_times[next_out]);
+      if (next_out < static_cast<long>(out_times.size()))
+        next_event = std::min(next_event, t_release + out_times[next_out]);
       if (t + h > next_event - 1e-9 * h && next_event > t) h = next_event - t;
       const StepResult r = runner.step(h, sc.adaptive);
       ++step;
@@ -253,23 +353,33 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
         sample(t, si);
         next_sample += sc.output.series_dt;
       }
-      if (next_out < out_times.size() && t >= t_release + out_times[next_out] - 1e-12) {
+      if (next_out < static_cast<long>(out_times.size()) && t >= t_release + out_times[next_out] - 1e-12) {
         if (sum.series.back().t != t) sample(t, si);
         write_frame(full_frame(), t, "");
         ++next_out;
       }
       if (t >= t_stop - 1e-12) stop = true;
+      if (!stop && opt.interrupt && *opt.interrupt) {
+        sum.interrupted = *opt.interrupt;
+        if (files) save();
+        stop = true;
+        break;
+      }
+      if (!stop && t >= next_ckpt - 1e-9 * ck_dt) {
+        save();
+        next_ckpt = next_checkpoint_after(t);
+      }
       if (opt.progress && std::chrono::duration<double>(Clock::now() - last_print).count() > 1.0) {
         last_print = Clock::now();
         const double w = std::chrono::duration<double>(last_print - wall0).count();
-        const double rate = step / w;
-        const double eta = (t_stop - t) / std::max(t / w, 1e-30);
+        const double rate = (step - step0) / w;
+        const double eta = (t_stop - t) / std::max((t - t0) / w, 1e-30);
         std::fprintf(stderr, "\r  t = %.4f / %.4f s  [%s]  step %ld  %.0f steps/s  ETA %.0f s   ", t, t_stop,
                      stage_name(sc, si).c_str(), step, rate, eta);
         std::fflush(stderr);
       }
     }
-    if (!sum.ok) break;
+    if (!sum.ok || sum.interrupted) break;
     if (sum.series.back().t != t) sample(t, si);
     const bool stage_frame = si + 1 < static_cast<int>(sc.stages.size()) && sc.output.frames_in_stages;
     const bool check = si == 0 && sc.stages.size() > 1 && t >= t_stage_end * (1 - 1e-12);
@@ -278,34 +388,28 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
     if (stage_frame) write_frame(full, t, "_" + stage_name(sc, si));
   }
   if (opt.progress) std::fprintf(stderr, "\n");
-  if (sum.ok && (pvd.empty() || pvd.back().first != t)) write_frame(full_frame(), t, "_final");
+  const bool complete = sum.ok && !sum.interrupted;
+  if (complete && (pvd.empty() || pvd.back().first != t)) write_frame(full_frame(), t, "_final");
   sum.steps = step;
   sum.t_end = t;
-  sum.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
+  sum.wall_s = wall_before + elapsed();
   sum.times = runner.times();
-  sum.stats = runner.update_stats();
+  sum.stats = stats_before + runner.update_stats();
 
   if (files) {
-    std::ostringstream a;
-    a.precision(8);
-    a << "t,t_flow,stage,runout,height,max_speed,kinetic_energy,mean_T,max_T\n";
-    for (const auto& r : sum.series)
-      a << r.t << ',' << r.t_flow << ',' << r.stage << ',' << r.m.runout << ',' << r.m.height << ',' << r.m.max_speed
-        << ',' << r.m.kinetic_energy << ',' << r.m.mean_T << ',' << r.m.max_T << '\n';
-    write_text(opt.out_dir + "/runout.csv", a.str());
-    std::ostringstream b;
-    b.precision(8);
-    b << "t,t_flow,name,x,y,vx,vy,p,q,eps_pd,T,eta_c,K_col\n";
-    for (const auto& r : sum.tracks)
-      b << r.t << ',' << r.t_flow << ',' << sc.tracks[r.track].name << ',' << r.x << ',' << r.y << ',' << r.vx << ','
-        << r.vy << ',' << r.p << ',' << r.q << ',' << r.eps_pd << ',' << r.T << ',' << r.eta_c << ',' << r.K_col
-        << '\n';
-    write_text(opt.out_dir + "/tracked.csv", b.str());
-    std::ostringstream c;
-    c.precision(8);
-    c << "x,surface_y\n";
-    for (const auto& [x, y] : free_surface(sum.ok ? fr : last_good, su)) c << x << ',' << y << '\n';
-    write_text(opt.out_dir + "/profile_final.csv", c.str());
+    write_series_csv(opt.out_dir, sc, sum);
+    if (!sum.interrupted) {
+      std::ostringstream c;
+      c.precision(8);
+      c << "x,surface_y\n";
+      for (const auto& [x, y] : free_surface(sum.ok ? fr : last_good, su)) c << x << ',' << y << '\n';
+      write_text(opt.out_dir + "/profile_final.csv", c.str());
+    }
+    if (complete && t >= t_total * (1 - 1e-12)) {  // nothing left to continue
+      std::error_code ec;
+      std::filesystem::remove(ckpt_path, ec);
+      sum.checkpoint.clear();
+    }
   }
   return sum;
 }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cmath>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -75,6 +76,17 @@ std::vector<S> pack(const HostParticles& hp) {
     if constexpr (kColl) pv.f(Lay::SQT, i) = S(hp.s[i]);
   }
   return a;
+}
+
+// A state to upload must come from the same set-up (count, dimension, field sizes).
+inline void check_upload(const HostParticles& hp, long n, int dim) {
+  const size_t un = static_cast<size_t>(n);
+  if (hp.n != n || hp.dim != dim || hp.x.size() != dim * un || hp.v.size() != dim * un || hp.m.size() != un ||
+      hp.sig.size() != 6 * un || hp.sigf.size() != 6 * un || hp.L.size() != dim * dim * un || hp.eps.size() != un ||
+      hp.e.size() != un || hp.s.size() != un)
+    throw std::invalid_argument("upload: particle state of " + std::to_string(hp.n) + " points in " +
+                                std::to_string(hp.dim) + "D does not fit this runner (" + std::to_string(n) +
+                                " in " + std::to_string(dim) + "D)");
 }
 
 template <int D, class S, bool kColl>

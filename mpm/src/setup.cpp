@@ -6,14 +6,30 @@
 #include <numeric>
 #include <sstream>
 
+#include <unistd.h>
+
 #include <granflow/mpm/runner.hpp>
 
 namespace granflow::mpm {
 namespace {
 
 constexpr int kPad = 3;  // grid cells added around the scene box (walls sit inside the grid)
+constexpr double kMaxNodes = 4e8;
 
-[[noreturn]] void fail(const std::string& key, const std::string& msg) { throw SceneError(key + ": " + msg); }
+// Host memory of a run, roughly: grid fields, masks and bins per node; the packed particle
+// buffer, its host copy and the per-particle work arrays.
+double memory_bytes(int D, double nodes, double particles, size_t stages) {
+  const double per_node = 8.0 * (1 + 4 * D) + 24 + static_cast<double>(stages);
+  const double per_particle = 2 * 8.0 * (2 * D + 1 + 6 + D * D + 6 + 3) + 32;
+  return nodes * per_node + particles * per_particle;
+}
+
+double physical_memory() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), size = ::sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && size > 0 ? double(pages) * double(size) : 0.0;
+}
+
+[[noreturn]] void fail(const std::string& key, const std::string& msg) { throw SceneError(key, msg); }
 
 bool inside_polygon(const std::vector<double>& px, const std::vector<double>& py, double x, double y) {
   bool in = false;
@@ -37,6 +53,13 @@ std::string fmt(double v) {
   return os.str();
 }
 
+std::string gb(double bytes) {
+  std::ostringstream os;
+  os.precision(3);
+  os << bytes / 1e9 << " GB";
+  return os.str();
+}
+
 }  // namespace
 
 SceneSetup make_setup(const Scene& sc) {
@@ -55,6 +78,14 @@ SceneSetup make_setup(const Scene& sc) {
   su.origin.resize(D);
   su.nodes.resize(D);
   su.n_nodes = 1;
+  double nodes_wanted = 1;
+  for (int d = 0; d < D; ++d) nodes_wanted *= sc.size[d] / sc.h + 1 + 2 * kPad;
+  if (!(nodes_wanted <= kMaxNodes))
+    fail("grid.h", "h = " + fmt(sc.h) + " m gives a grid of " + fmt(nodes_wanted) + " nodes (about " +
+                       gb(memory_bytes(D, nodes_wanted, 0, sc.stages.size())) + "); at most " +
+                       std::to_string(static_cast<long>(kMaxNodes)) +
+                       " nodes are allowed (grid.size / grid.h + 7 per axis): use a larger grid.h or a smaller "
+                       "grid.size");
   for (int d = 0; d < D; ++d) {
     const double cells = sc.size[d] / sc.h;
     if (std::fabs(cells - std::round(cells)) > 1e-6)
@@ -63,12 +94,13 @@ SceneSetup make_setup(const Scene& sc) {
     su.nodes[d] = static_cast<int>(std::lround(cells)) + 1 + 2 * kPad;
     su.n_nodes *= su.nodes[d];
   }
-  if (su.n_nodes > 400'000'000L) fail("grid.h", "grid of " + std::to_string(su.n_nodes) + " nodes is too large");
 
   // Particles on a lattice of spacing h / ppc_axis, aligned with each body's lower corner.
   const Material& mat = sc.material;
   const double rho0 = mat.params.c.rho_p / (1.0 + mat.e0);
   std::vector<std::vector<double>> pos(D);
+  double points_wanted = 0;
+  const double ram = physical_memory();
   for (size_t b = 0; b < sc.bodies.size(); ++b) {
     const Body& body = sc.bodies[b];
     const std::string key = "body[" + std::to_string(b) + "]";
@@ -85,10 +117,12 @@ SceneSetup make_setup(const Scene& sc) {
     }
     for (int d = 0; d < D; ++d) {
       if (!(hi[d] > lo[d])) fail(key, "is empty along axis " + std::to_string(d));
-      if (lo[d] < sc.origin[d] - 1e-12 || hi[d] > sc.origin[d] + sc.size[d] + 1e-12)
-        fail(key, "material [" + fmt(lo[d]) + ", " + fmt(hi[d]) + "] along axis " + std::to_string(d) +
-                      " lies outside the grid [" + fmt(sc.origin[d]) + ", " + fmt(sc.origin[d] + sc.size[d]) +
-                      "] (grid.origin, grid.size)");
+      const bool below = lo[d] < sc.origin[d] - 1e-12;
+      if (below || hi[d] > sc.origin[d] + sc.size[d] + 1e-12)
+        fail(key + (body.is_polygon() ? (d == 0 ? ".polygon_x" : ".polygon_y") : below ? ".min" : ".max"),
+             "material [" + fmt(lo[d]) + ", " + fmt(hi[d]) + "] along axis " + std::to_string(d) +
+                 " lies outside the grid [" + fmt(sc.origin[d]) + ", " + fmt(sc.origin[d] + sc.size[d]) +
+                 "] (grid.origin, grid.size)");
     }
     std::vector<long> cnt(D);
     long total = 1;
@@ -96,6 +130,12 @@ SceneSetup make_setup(const Scene& sc) {
       cnt[d] = static_cast<long>(std::floor((hi[d] - lo[d]) / l + 1e-9));
       total *= cnt[d];
     }
+    points_wanted += double(total);
+    const double need = memory_bytes(D, double(su.n_nodes), points_wanted, sc.stages.size());
+    if (ram > 0 && need > ram)
+      fail("grid.h", "the scene needs about " + gb(need) + " of memory (" + std::to_string(su.n_nodes) + " nodes, " +
+                         fmt(points_wanted) + " material points), more than this machine's " + gb(ram) +
+                         ": use a larger grid.h or fewer particles.per_cell");
     for (long k = 0; k < total; ++k) {
       long kk = k;
       double x[3];
@@ -115,10 +155,12 @@ SceneSetup make_setup(const Scene& sc) {
     for (const Wall& w : sc.walls) {
       const double x = pos[w.axis][i];
       if (w.at_max ? x >= w.position : x <= w.position)
-        fail(w.key, "material point at " + fmt(pos[0][i]) + ", " + fmt(pos[1][i]) + " lies beyond this wall");
+        fail(w.key, "material point at " + fmt(pos[0][i]) + ", " + fmt(pos[1][i]) + " lies beyond this wall (" +
+                        std::string(1, char('x' + w.axis)) + (w.at_max ? " >= " : " <= ") + fmt(w.position) +
+                        " is held): move the wall or the material");
     }
     if (sc.base && pos[1][i] <= polyline(sc.base->x, sc.base->y, pos[0][i]))
-      fail("boundary.base", "material point at " + fmt(pos[0][i]) + ", " + fmt(pos[1][i]) + " lies below the base");
+      fail("base", "material point at " + fmt(pos[0][i]) + ", " + fmt(pos[1][i]) + " lies below the base");
   }
 
   HostParticles& hp = su.particles;
@@ -161,7 +203,7 @@ SceneSetup make_setup(const Scene& sc) {
       s(1, 1) = sv;
       const double eps0 = initial_plastic_strain<LodeShape::SmoothMohrCoulomb>(fp, s, mat.e0);
       if (!(eps0 >= 0))
-        fail("initial.K0", "the geostatic state with K0 = " + fmt(K0) + " lies outside the yield surface");
+        fail("initial_stress.K0", "the geostatic state with K0 = " + fmt(K0) + " lies outside the yield surface");
       const double v6[6] = {s(0, 0), s(1, 1), s(2, 2), 0, 0, 0};
       for (int c = 0; c < 6; ++c) hp.sig[c * n + i] = hp.sigf[c * n + i] = v6[c];
       hp.eps[i] = eps0;

@@ -4,6 +4,8 @@
 // e.g. {"calib_unknown_key", {{"job.toml", "..."}}, {"calibrate", "job.toml"}, 2, {"job.toml:3", "..."}}.
 #include "harness.hpp"
 
+#include <granflow/mpm/checkpoint.hpp>
+
 namespace reliability {
 
 namespace {
@@ -56,6 +58,55 @@ const std::string kTableTest =
 const std::string kRates = "time,rate\n0,10\n0.005,20\n0.01,20\n";
 const std::string kLab = "# triaxial test\nstrain,q\n0,0\n0.01,120\n0.02,180\n";
 
+const std::string kScene =
+    "name = \"reliability scene\"\n"       // 1
+    "[grid]\n"                              // 2
+    "origin = [0.0, 0.0]\n"                 // 3
+    "size = [0.2, 0.1]\n"                   // 4
+    "h = 0.02\n"                            // 5
+    "[particles]\n"                         // 6
+    "per_cell = 4\n"                        // 7
+    "[time]\n"                              // 8
+    "dt = 1e-4\n"                           // 9
+    "[material]\n"                          // 10
+    "parameters = \"column_collapse\"\n"    // 11
+    "model = \"frictional\"\n"              // 12
+    "[[body]]\n"                            // 13
+    "min = [0.0, 0.0]\n"                    // 14
+    "max = [0.1, 0.06]\n"                   // 15
+    "[[wall]]\n"                            // 16
+    "side = \"y-\"\n"                       // 17
+    "[[stage]]\n"                           // 18
+    "duration = 0.002\n"                    // 19
+    "[output]\n"                            // 20
+    "series_dt = 0.001\n";                  // 21
+
+const std::string kJob =
+    "params = \"collisional_element\"\n"    // 1
+    "[[free]]\n"                            // 2
+    "key = \"collisional.V_m\"\n"           // 3
+    "lower = 0.2\n"                         // 4
+    "upper = 0.5\n"                         // 5
+    "[algorithm]\n"                         // 6
+    "global = \"none\"\n"                   // 7
+    "local_evaluations = 20\n"              // 8
+    "[[experiments]]\n"                     // 9
+    "name = \"dem\"\n"                      // 10
+    "kind = \"steady_shear\"\n"             // 11
+    "data = \"dem.csv\"\n"                  // 12
+    "abscissa = \"nu\"\n"                   // 13
+    "quantity = \"solid_fraction\"\n"       // 14
+    "targets = { p = \"p\", s = \"tau\" }\n" // 15
+    "[experiments.steady_shear]\n"          // 16
+    "restitution_column = \"e_r\"\n";       // 17
+
+const std::string kDem =
+    "# steady shear, d = rho_p = gammadot = 1\n"  // 1
+    "nu,p,s,T,e_r\n"                              // 2
+    "0.30,0.38,0.16,0.43,0.7\n"                   // 3
+    "0.40,0.70,0.31,0.33,0.7\n"                   // 4
+    "0.50,1.84,0.81,0.25,0.7\n";                  // 5
+
 // Shorthands.
 std::string P(const std::string& from, const std::string& to) { return edit(kParams, from, to); }
 std::string T(const std::string& from, const std::string& to) { return edit(kTest, from, to); }
@@ -63,12 +114,31 @@ const std::vector<std::string> kEl = {"element", "t.toml", "--out", "out.csv"};
 const std::vector<std::string> kTab = {"element", "table.toml", "--out", "out.csv"};
 std::vector<std::string> el_set(const std::string& a) { return {"element", "t.toml", "--set", a, "--out", "out.csv"}; }
 const std::vector<std::string> kLabArgs = {"@csv", "lab.csv", "strain,q", "strain"};
+std::string S(const std::string& from, const std::string& to) { return edit(kScene, from, to); }
+std::string J(const std::string& from, const std::string& to) { return edit(kJob, from, to); }
+const std::vector<std::string> kMpm = {"mpm", "scene.toml", "--out", "o", "--no-png", "--quiet"};
+const std::vector<std::string> kRestart = {"mpm", "scene.toml", "--out", "o", "--no-png", "--quiet", "--restart"};
+const std::vector<std::string> kCal = {"calibrate", "job.toml", "--out", "fit", "--no-plot", "--quiet"};
+
+// A valid checkpoint, but of another scene (its hash is not kScene's).
+std::string foreign_checkpoint() {
+  granflow::mpm::Checkpoint c;
+  c.scene_hash = 0x5ca1ab1e;
+  c.loop.dt = 1e-4;
+  c.loop.series.push_back({});
+  return granflow::mpm::encode_checkpoint(c);
+}
+std::string flip_byte(std::string s, size_t at) {
+  s[at] = static_cast<char>(s[at] ^ 0x40);
+  return s;
+}
 constexpr int kInput = 2;  // granflow's exit code for input errors
 
 }  // namespace
 
 Files default_files() {
-  return {{"p.toml", kParams}, {"t.toml", kTest}, {"table.toml", kTableTest}, {"rates.csv", kRates}, {"lab.csv", kLab}};
+  return {{"p.toml", kParams}, {"t.toml", kTest},     {"table.toml", kTableTest}, {"rates.csv", kRates},
+          {"lab.csv", kLab},   {"scene.toml", kScene}, {"job.toml", kJob},         {"dem.csv", kDem}};
 }
 
 std::vector<Case> all_cases() {
@@ -189,6 +259,47 @@ std::vector<Case> all_cases() {
       {"lab_inf", {{"lab.csv", "strain,q\n0,0\n0.01,inf\n"}}, kLabArgs, kInput, {"lab.csv:3", "not a finite number"}},
       {"lab_truncated_row", {{"lab.csv", "strain,q\n0,0\n0.01"}}, kLabArgs, kInput, {"lab.csv:3"}},
       {"lab_file_missing", {{"lab.csv", kAbsent}}, kLabArgs, kInput, {"lab.csv", "cannot open file"}},
+
+      // ---- calibration job (granflow calibrate) ----------------------------------------------
+      {"calib_unknown_key", {{"job.toml", "colour = 1\n" + kJob}}, kCal, kInput, {"job.toml:1", "unknown key 'colour'", "allowed here", "params"}},
+      {"calib_unknown_experiment_key", {{"job.toml", J("abscissa = ", "absissa = ")}}, kCal, kInput, {"job.toml:9", "'experiments[0].abscissa'", "required key is missing", "experiments[0].absissa", "a typo?"}},
+      {"calib_missing_data_file", {{"dem.csv", kAbsent}}, kCal, kInput, {"job.toml:12", "'experiments[0].data'", "no such file", "dem.csv"}},
+      {"calib_bounds_reversed", {{"job.toml", J("lower = 0.2\nupper = 0.5", "lower = 0.5\nupper = 0.2")}}, kCal, kInput, {"job.toml:5", "'free[0].upper'", "must exceed lower = 0.5"}},
+      {"calib_start_outside_bounds", {{"job.toml", J("upper = 0.5\n", "upper = 0.5\nstart = 0.7\n")}}, kCal, kInput, {"job.toml:6", "'free[0].start'", "0.7", "outside [lower, upper] = [0.2"}},
+      {"calib_unknown_parameter", {{"job.toml", J("collisional.V_m", "collisional.V_x")}}, kCal, kInput, {"job.toml:3", "'free[0].key'", "collisional.V_x"}},
+      {"calib_no_free_parameter", {{"job.toml", J("[[free]]\nkey = \"collisional.V_m\"\nlower = 0.2\nupper = 0.5\n", "")}}, kCal, kInput, {"job.toml", "'free'", "at least one [[free]]"}},
+      {"calib_unknown_algorithm", {{"job.toml", J("global = \"none\"", "global = \"none\"\nlocal = \"LN_FOO\"")}}, kCal, kInput, {"job.toml:8", "'algorithm.local'", "must be one of", "'LN_BOBYQA'", "LN_FOO"}},
+      {"calib_kind_missing", {{"job.toml", J("kind = \"steady_shear\"\n", "")}}, kCal, kInput, {"job.toml", "'experiments[0].kind'", "required key is missing", "'steady_shear'"}},
+      {"calib_data_non_numeric", {{"dem.csv", edit(kDem, "0.31", "abc")}}, kCal, kInput, {"dem.csv:4", "column 's'", "'abc' is not a number"}},
+      {"calib_data_unsorted_abscissa", {{"dem.csv", edit(kDem, "0.50,", "0.35,")}}, kCal, kInput, {"dem.csv:5", "must increase strictly", "0.35 follows 0.4"}},
+      {"calib_data_missing_column", {{"job.toml", J("s = \"tau\"", "shear = \"tau\"")}}, kCal, kInput, {"dem.csv", "needs column 'shear'", "header 'nu,p,s,T,e_r'"}},
+      {"calib_job_missing", {}, {"calibrate", "nojob.toml", "--no-plot", "--quiet"}, kInput, {"nojob.toml", "cannot open file"}},
+      {"calib_out_exists", {{"fit/old.txt", "previous fit\n"}}, kCal, kInput, {"fit", "output directory exists", "--force"}},
+
+      // ---- MPM scene (granflow mpm) ----------------------------------------------------------
+      {"mpm_material_outside_grid", {{"scene.toml", S("max = [0.1, 0.06]", "max = [0.1, 0.5]")}}, kMpm, kInput, {"scene.toml:15", "'body[0].max'", "lies outside the grid [0, 0.1]", "grid.size"}},
+      {"mpm_material_beyond_wall", {{"scene.toml", S("side = \"y-\"", "side = \"y-\"\nposition = 0.03")}}, kMpm, kInput, {"scene.toml:17", "'wall[0].side'", "lies beyond this wall (y <= 0.03 is held)"}},
+      {"mpm_two_walls_one_side", {{"scene.toml", kScene + "[[wall]]\nside = \"y-\"\n"}}, kMpm, kInput, {"scene.toml:23", "'wall[1].side'", "second wall on side y-", "contradicts"}},
+      {"mpm_wall_outside_grid", {{"scene.toml", S("side = \"y-\"", "side = \"y-\"\nposition = -1")}}, kMpm, kInput, {"scene.toml:18", "'wall[0].position'", "y = -1.000000 lies outside the grid [0.000000, 0.100000]"}},
+      {"mpm_dt_above_stability_limit", {{"scene.toml", S("dt = 1e-4", "dt = 1e-2")}}, kMpm, kInput, {"scene.toml:9", "'time.dt'", "above the stability limit h / c_p"}},
+      {"mpm_grid_too_large", {{"scene.toml", S("h = 0.02", "h = 1e-6")}}, kMpm, kInput, {"scene.toml:5", "'grid.h'", "at most 400000000 nodes", "larger grid.h"}},
+      {"mpm_unknown_shape", {{"scene.toml", S("h = 0.02", "h = 0.02\nshape = \"cubic\"")}}, kMpm, kInput, {"scene.toml:6", "'grid.shape'", "must be one of 'linear', 'quadratic', got 'cubic'"}},
+      {"mpm_stage_negative_duration", {{"scene.toml", S("duration = 0.002", "duration = -0.1")}}, kMpm, kInput, {"scene.toml:19", "'stage[0].duration'", "must be > 0", "-0.1"}},
+      {"mpm_unknown_key", {{"scene.toml", S("per_cell = 4", "per_cel = 4")}}, kMpm, kInput, {"scene.toml", "'particles.per_cell'", "required key is missing", "a typo?"}},
+      {"mpm_per_cell_not_square", {{"scene.toml", S("per_cell = 4", "per_cell = 3")}}, kMpm, kInput, {"scene.toml:7", "'particles.per_cell'", "must be n^2"}},
+      {"mpm_unknown_model", {{"scene.toml", S("\"frictional\"", "\"viscous\"")}}, kMpm, kInput, {"scene.toml:12", "'material.model'", "'phase_transition', 'frictional'"}},
+      {"mpm_no_such_parameter_set", {{"scene.toml", S("\"column_collapse\"", "\"column_colapse\"")}}, kMpm, kInput, {"scene.toml:11", "'material.parameters'", "column_colapse: no such file, and no parameter set of that name", "column_collapse"}},
+      {"mpm_frame_after_end", {{"scene.toml", kScene + "times = [1.0]\n"}}, kMpm, kInput, {"scene.toml:22", "'output.times'", "after the end of the last stage"}},
+      {"mpm_checkpoint_dt_negative", {{"scene.toml", kScene + "checkpoint_dt = -1\n"}}, kMpm, kInput, {"scene.toml:22", "'output.checkpoint_dt'", "must be > 0"}},
+      {"mpm_checkpoint_every_zero", {}, {"mpm", "scene.toml", "--out", "o", "--checkpoint-every", "0"}, 105, {"--checkpoint-every", "must be a number of seconds > 0, got '0'", "command line: mpm scene.toml"}},
+      {"mpm_out_not_empty", {{"o/old.vtu", "previous run\n"}}, kMpm, kInput, {"output directory 'o' exists and is not empty", "--force"}},
+      {"mpm_restart_without_checkpoint", {{"o/frame_0000.vtu", "previous run\n"}}, kRestart, kInput, {"o/checkpoint.bin", "no checkpoint to restart from", "--checkpoint-every"}},
+      {"mpm_restart_without_output", {}, kRestart, kInput, {"--restart", "'o' does not exist", "nothing to continue"}},
+      {"mpm_restart_with_force", {{"o/checkpoint.bin", foreign_checkpoint()}}, {"mpm", "scene.toml", "--out", "o", "--restart", "--force"}, kInput, {"--restart", "--force", "give one of them"}},
+      {"mpm_restart_other_scene", {{"o/checkpoint.bin", foreign_checkpoint()}}, kRestart, kInput, {"o/checkpoint.bin", "written for a different scene or parameter set", "5ca1ab1e"}},
+      {"mpm_restart_truncated_checkpoint", {{"o/checkpoint.bin", foreign_checkpoint().substr(0, 100)}}, kRestart, kInput, {"o/checkpoint.bin", "truncated checkpoint: 100 bytes"}},
+      {"mpm_restart_corrupt_checkpoint", {{"o/checkpoint.bin", flip_byte(foreign_checkpoint(), 60)}}, kRestart, kInput, {"o/checkpoint.bin", "checksum mismatch"}},
+      {"mpm_restart_not_a_checkpoint", {{"o/checkpoint.bin", "t,runout\n0,0.2\n"}}, kRestart, kInput, {"o/checkpoint.bin", "not a granflow MPM checkpoint"}},
   };
 }
 

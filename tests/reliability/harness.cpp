@@ -5,8 +5,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <gtest/gtest.h>
+
 #include <chrono>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -30,6 +33,31 @@ std::string drop_line(const std::string& base, const std::string& line_start) {
 }
 
 namespace {
+
+class ScratchCleanup : public ::testing::Environment {
+ public:
+  explicit ScratchCleanup(std::string root) : root_(std::move(root)) {}
+  void TearDown() override {
+    std::error_code ec;
+    if (!::testing::UnitTest::GetInstance()->Failed()) std::filesystem::remove_all(root_, ec);
+  }
+
+ private:
+  std::string root_;
+};
+
+}  // namespace
+
+std::string scratch_root(const std::string& prefix) {
+  static std::string root;
+  if (root.empty()) {
+    root = (std::filesystem::path(::testing::TempDir()) / (prefix + "_" + std::to_string(::getpid()))).string();
+    ::testing::AddGlobalTestEnvironment(new ScratchCleanup(root));
+  }
+  return root;
+}
+
+namespace {
 std::string slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::ostringstream os;
@@ -38,9 +66,7 @@ std::string slurp(const std::string& path) {
 }
 }  // namespace
 
-Outcome run_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args,
-               double timeout_s) {
-  Outcome o;
+int start_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args) {
   const std::string out_path = dir + "/../" + "stdout.txt", err_path = dir + "/../" + "stderr.txt";
   const pid_t pid = ::fork();
   if (pid == 0) {
@@ -60,6 +86,12 @@ Outcome run_in(const std::string& dir, const std::string& program, const std::ve
     ::execv(program.c_str(), av.data());
     ::_exit(127);
   }
+  return pid;
+}
+
+Outcome finish(int pid, const std::string& dir, double timeout_s) {
+  Outcome o;
+  const std::string out_path = dir + "/../" + "stdout.txt", err_path = dir + "/../" + "stderr.txt";
   const auto t0 = std::chrono::steady_clock::now();
   int status = 0;
   for (;;) {
@@ -82,6 +114,11 @@ Outcome run_in(const std::string& dir, const std::string& program, const std::ve
   o.out = slurp(out_path);
   o.err = slurp(err_path);
   return o;
+}
+
+Outcome run_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args,
+               double timeout_s) {
+  return finish(start_in(dir, program, args), dir, timeout_s);
 }
 
 }  // namespace reliability

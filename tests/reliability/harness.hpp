@@ -36,13 +36,21 @@ struct Outcome {
   std::string out, err;
 };
 
-// Runs program with args in folder dir (cwd), with GRANFLOW_DATA_DIR set to the source data.
+// Runs program with args in folder dir (cwd), with GRANFLOW_DATA_DIR set to the source data;
+// stdout and stderr go to dir/../stdout.txt and stderr.txt.
 Outcome run_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args,
                double timeout_s = 120.0);
+// The same in two halves: start it (returns the pid), then wait for it (SIGKILL after timeout_s).
+int start_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args);
+Outcome finish(int pid, const std::string& dir, double timeout_s = 120.0);
 
 // Returns base with the first occurrence of `from` replaced by `to`; a marker that fails the
 // case when `from` is not in base (so a stale edit cannot silently test the good file).
 std::string edit(const std::string& base, const std::string& from, const std::string& to);
+
+// TempDir()/<prefix>_<pid>: scratch space of this test process (worktrees on one machine run the
+// suites at the same time); removed at exit when every test passed, kept for a look otherwise.
+std::string scratch_root(const std::string& prefix);
 std::string drop_line(const std::string& base, const std::string& line_start);
 
 }  // namespace reliability

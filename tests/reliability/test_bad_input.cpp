@@ -28,7 +28,7 @@ std::string slurp(const fs::path& p) {
 }
 
 fs::path fresh_dir(const std::string& name) {
-  const fs::path root = fs::path(::testing::TempDir()) / "granflow_bad_input" / name;
+  const fs::path root = fs::path(scratch_root("granflow_bad_input")) / name;
   fs::remove_all(root);
   fs::create_directories(root / "work");
   return root / "work";
@@ -127,6 +127,24 @@ TEST(BadInputControl, DefaultFilesRun) {
   const Outcome o = run_case(dir, {"element", "t.toml", "--out", "out.csv", "--force"});
   EXPECT_EQ(o.exit_code, 0) << o.err;
   EXPECT_EQ(listing(dir).size(), default_files().size() + 3);
+}
+
+// The MPM scene and the calibration job the mpm_* and calib_* cases start from are good.
+TEST(BadInputControl, DefaultSceneAndJobRun) {
+  const fs::path dir = fresh_dir("control_mpm_calibrate");
+  for (const auto& [name, text] : default_files()) std::ofstream(dir / name) << text;
+  Outcome o = run_case(dir, {"mpm", "scene.toml", "--out", "o", "--no-png", "--quiet"});
+  EXPECT_EQ(o.exit_code, 0) << o.err;
+  for (const char* f : {"frames.pvd", "runout.csv", "tracked.csv", "profile_final.csv"})
+    EXPECT_TRUE(fs::exists(dir / "o" / f)) << f;
+  EXPECT_FALSE(fs::exists(dir / "o" / "checkpoint.bin"));  // a completed run leaves none
+  // the same with checkpoints, then --force over it
+  o = run_case(dir, {"mpm", "scene.toml", "--out", "o", "--no-png", "--quiet", "--checkpoint-every", "5e-4",
+                     "--force"});
+  EXPECT_EQ(o.exit_code, 0) << o.err;
+  o = run_case(dir, {"calibrate", "job.toml", "--out", "fit", "--no-plot", "--quiet", "--evaluate"});
+  EXPECT_EQ(o.exit_code, 0) << o.err;
+  EXPECT_TRUE(fs::exists(dir / "fit"));
 }
 
 }  // namespace

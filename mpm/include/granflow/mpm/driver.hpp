@@ -1,6 +1,8 @@
 // The time loop on the host: stages, adaptive or fixed step, sampling, outputs, failure stop.
 #pragma once
 
+#include <csignal>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -8,10 +10,19 @@
 
 namespace granflow::mpm {
 
+struct Checkpoint;  // checkpoint.hpp
+
 struct RunOptions {
   std::string out_dir;    // empty: write nothing (tests)
   bool progress = true;   // progress line on stderr
   double stop_after = -1; // > 0: stop at this simulated time (short CPU throughput runs)
+  // Checkpoints (out_dir/checkpoint.bin, needs out_dir): every checkpoint_dt of simulated time
+  // (<= 0: only when interrupted); removed when the scene's last stage is done.
+  double checkpoint_dt = 0;
+  std::uint64_t scene_hash = 0;          // stored in checkpoints (see check_checkpoint)
+  const Checkpoint* resume = nullptr;    // continue from this state (checked by the caller)
+  // Polled after every step; non-zero (a signal number): checkpoint, write the CSVs, stop.
+  const volatile std::sig_atomic_t* interrupt = nullptr;
 };
 
 // Run-out and height of a frame, measured along the scene's run-out polyline.
@@ -53,6 +64,8 @@ struct RunSummary {
   PhaseTimes times;
   UpdateStats stats;
   std::string device;
+  int interrupted = 0;     // the interrupt value that stopped the run (0: not interrupted)
+  std::string checkpoint;  // the checkpoint written last (empty: none, or removed at the end)
 };
 
 RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt);

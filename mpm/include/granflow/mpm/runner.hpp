@@ -13,7 +13,7 @@
 namespace granflow::mpm {
 
 // Host-side particle state in double precision, structure of arrays (component-major for
-// vectors: x[d * n + i]). What a checkpoint would hold.
+// vectors: x[d * n + i]). What a checkpoint holds.
 struct HostParticles {
   long n = 0;
   int dim = 2;
@@ -86,6 +86,8 @@ class Runner {
   // Copies the state to the host; with diagnostics the derived fields of Frame are filled.
   virtual void frame(Frame& out, bool diagnostics, const std::vector<long>& subset = {}) = 0;
   virtual void download(HostParticles& out) = 0;
+  // Replaces the particle state (a checkpoint); same count and dimension as the set-up.
+  virtual void upload(const HostParticles& in) = 0;
   virtual PhaseTimes times() const = 0;
   virtual void reset_times() = 0;
   // CPU twin only (the CUDA backend records them per particle but does not sum them yet).

@@ -2,6 +2,7 @@
 // No file format here; programs and tests may build scenes in code (see small_column_scene).
 #pragma once
 
+#include <map>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -16,7 +17,12 @@ namespace granflow::mpm {
 // An inconsistent scene; the message starts with the offending key (e.g. "time.dt: ...").
 class SceneError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  SceneError(const std::string& key, const std::string& message)
+      : std::runtime_error(key + ": " + message), key_(key) {}
+  const std::string& key() const { return key_; }
+
+ private:
+  std::string key_;
 };
 
 enum class ModelKind { PhaseTransition, Frictional };
@@ -81,6 +87,7 @@ struct OutputSpec {
   bool binary = true;            // VTU data base64-encoded (false: ASCII)
   bool frames_in_stages = true;  // one frame at the end of every earlier stage
   std::vector<std::string> png_fields;  // fields plot_mpm.py draws
+  double checkpoint_dt = 0;      // simulated time between checkpoints (0: only when interrupted)
 };
 
 struct Scene {
@@ -111,6 +118,7 @@ struct Scene {
   std::vector<double> runout_x, runout_y;
   std::vector<Track> tracks;
   OutputSpec output;
+  std::map<std::string, long> lines;  // scene files: line of each key make_setup may name
 
   double duration() const {
     double t = 0;

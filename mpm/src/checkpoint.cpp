@@ -1,0 +1,336 @@
+// Binary checkpoint: header (magic, version, byte order, payload size, scene hash), payload,
+// FNV-1a of everything before it. Host byte order; a file of the other order is refused.
+#include <granflow/mpm/checkpoint.hpp>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <type_traits>
+
+namespace granflow::mpm {
+namespace {
+
+constexpr char kMagic[8] = {'G', 'F', 'M', 'P', 'M', 'C', 'K', 'P'};
+constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kByteOrder = 0x01020304;
+constexpr size_t kHeader = 8 + 4 + 4 + 8 + 8;
+
+class Writer {
+ public:
+  template <class T>
+  void pod(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    buf_.append(reinterpret_cast<const char*>(&v), sizeof v);
+  }
+  void doubles(const std::vector<double>& v) {
+    pod(static_cast<std::uint64_t>(v.size()));
+    if (!v.empty()) buf_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+  }
+  void str(const std::string& s) {
+    pod(static_cast<std::uint64_t>(s.size()));
+    buf_ += s;
+  }
+  std::string& bytes() { return buf_; }
+
+ private:
+  std::string buf_;
+};
+
+class Reader {
+ public:
+  Reader(std::string_view b, size_t at) : b_(b), at_(at) {}
+  template <class T>
+  T pod() {
+    T v;
+    need(sizeof v, "a value");
+    std::memcpy(&v, b_.data() + at_, sizeof v);
+    at_ += sizeof v;
+    return v;
+  }
+  std::vector<double> doubles(const char* what) {
+    const std::uint64_t n = pod<std::uint64_t>();
+    if (n > (b_.size() - at_) / sizeof(double)) fail(std::string(what) + " claims more values than the file holds");
+    std::vector<double> v(n);
+    if (n > 0) std::memcpy(v.data(), b_.data() + at_, n * sizeof(double));  // data() may be null when empty
+    at_ += n * sizeof(double);
+    return v;
+  }
+  std::string str() {
+    const std::uint64_t n = pod<std::uint64_t>();
+    need(n, "a string");
+    std::string s(b_.data() + at_, n);
+    at_ += n;
+    return s;
+  }
+  std::uint64_t count(size_t min_item_bytes, const char* what) {
+    const std::uint64_t n = pod<std::uint64_t>();
+    if (n > (b_.size() - at_) / min_item_bytes) fail(std::string(what) + " claims more entries than the file holds");
+    return n;
+  }
+  size_t at() const { return at_; }
+  [[noreturn]] static void fail(const std::string& m) { throw CheckpointError("corrupt checkpoint: " + m); }
+
+ private:
+  void need(size_t n, const char* what) {
+    if (n > b_.size() - at_) fail(std::string("ends inside ") + what);
+  }
+  std::string_view b_;
+  size_t at_;
+};
+
+std::string num(double v) {
+  std::ostringstream os;
+  os.precision(10);
+  os << v;
+  return os.str();
+}
+
+std::string hex(std::uint64_t v) {
+  std::ostringstream os;
+  os << std::hex << v;
+  return os.str();
+}
+
+void write_frame_light(Writer& w, const Frame& f) {
+  w.pod(static_cast<std::int64_t>(f.n));
+  w.pod(static_cast<std::int32_t>(f.dim));
+  w.doubles(f.x);
+  w.doubles(f.v);
+  w.doubles(f.T);
+}
+
+Frame read_frame_light(Reader& r) {
+  Frame f;
+  f.n = r.pod<std::int64_t>();
+  f.dim = r.pod<std::int32_t>();
+  f.x = r.doubles("last_good.x");
+  f.v = r.doubles("last_good.v");
+  f.T = r.doubles("last_good.T");
+  const size_t n = static_cast<size_t>(f.n);
+  if (f.n < 0 || f.x.size() != f.dim * n || f.v.size() != f.dim * n || f.T.size() != n)
+    Reader::fail("last good frame: array sizes do not match its " + std::to_string(f.n) + " points");
+  return f;
+}
+
+}  // namespace
+
+std::uint64_t fnv1a(std::string_view bytes, std::uint64_t h) {
+  for (const unsigned char c : bytes) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+std::string encode_checkpoint(const Checkpoint& c) {
+  Writer w;
+  w.bytes().append(kMagic, sizeof kMagic);
+  w.pod(kVersion);
+  w.pod(kByteOrder);
+  w.pod(std::uint64_t{0});  // payload size, filled in below
+  w.pod(c.scene_hash);
+
+  const HostParticles& p = c.particles;
+  w.pod(static_cast<std::int64_t>(p.n));
+  w.pod(static_cast<std::int32_t>(p.dim));
+  for (const auto* v : {&p.x, &p.v, &p.m, &p.sig, &p.sigf, &p.L, &p.eps, &p.e, &p.s}) w.doubles(*v);
+
+  const LoopState& s = c.loop;
+  w.pod(s.t);
+  w.pod(static_cast<std::int64_t>(s.step));
+  w.pod(s.dt);
+  w.pod(static_cast<std::int32_t>(s.stage));
+  w.pod(s.t_stage_end);
+  w.pod(s.next_sample);
+  w.pod(static_cast<std::int64_t>(s.next_out));
+  w.pod(static_cast<std::int32_t>(s.frame_no));
+  w.pod(static_cast<std::uint64_t>(s.pvd.size()));
+  for (const auto& [t, name] : s.pvd) {
+    w.pod(t);
+    w.str(name);
+  }
+  w.pod(static_cast<std::uint64_t>(s.series.size()));
+  for (const SeriesRow& r : s.series) {
+    w.pod(r.t);
+    w.pod(r.t_flow);
+    w.pod(static_cast<std::int32_t>(r.stage));
+    for (double v : {r.m.runout, r.m.height, r.m.max_speed, r.m.kinetic_energy, r.m.mean_T, r.m.max_T}) w.pod(v);
+  }
+  w.pod(static_cast<std::uint64_t>(s.tracks.size()));
+  for (const TrackRow& r : s.tracks) {
+    w.pod(r.t);
+    w.pod(r.t_flow);
+    w.pod(static_cast<std::uint64_t>(r.track));
+    for (double v : {r.x, r.y, r.vx, r.vy, r.p, r.q, r.eps_pd, r.T, r.eta_c, r.K_col}) w.pod(v);
+  }
+  write_frame_light(w, s.last_good);
+  w.pod(s.last_good_t);
+  w.pod(static_cast<std::uint8_t>(s.consolidation.done));
+  w.pod(s.consolidation.max_rel_error);
+  w.pod(s.consolidation.base_sigma_v);
+  w.pod(s.consolidation.base_rho_g_h);
+  for (long v : {s.stats.updates, s.stats.substeps, s.stats.substep_limit, s.stats.tension_cutoff, s.stats.vs_clamped,
+                 s.stats.separated})
+    w.pod(static_cast<std::int64_t>(v));
+  w.pod(s.wall_s);
+
+  std::string& b = w.bytes();
+  const std::uint64_t payload = b.size() - kHeader;
+  std::memcpy(b.data() + 16, &payload, sizeof payload);
+  const std::uint64_t sum = fnv1a(b);
+  b.append(reinterpret_cast<const char*>(&sum), sizeof sum);
+  return b;
+}
+
+Checkpoint decode_checkpoint(std::string_view b) {
+  if (b.size() < sizeof kMagic || std::memcmp(b.data(), kMagic, sizeof kMagic) != 0)
+    throw CheckpointError("not a granflow MPM checkpoint (the file does not start with 'GFMPMCKP')");
+  if (b.size() < kHeader + 8)
+    throw CheckpointError("truncated checkpoint: " + std::to_string(b.size()) + " bytes, shorter than its header");
+  Reader h(b, sizeof kMagic);
+  const auto version = h.pod<std::uint32_t>();
+  if (version != kVersion)
+    throw CheckpointError("checkpoint format version " + std::to_string(version) + "; this granflow reads version " +
+                          std::to_string(kVersion));
+  if (h.pod<std::uint32_t>() != kByteOrder)
+    throw CheckpointError("checkpoint written on a machine of the other byte order");
+  const auto payload = h.pod<std::uint64_t>();
+  const std::uint64_t expected = kHeader + payload + 8;
+  if (payload > b.size() || b.size() != expected)
+    throw CheckpointError("truncated checkpoint: " + std::to_string(b.size()) + " bytes, the header says " +
+                          std::to_string(expected) + " (the run was killed while writing it?)");
+  std::uint64_t stored;
+  std::memcpy(&stored, b.data() + b.size() - 8, 8);
+  if (fnv1a(b.substr(0, b.size() - 8)) != stored)
+    throw CheckpointError("corrupt checkpoint: checksum mismatch (the file was changed after it was written)");
+
+  Checkpoint c;
+  c.scene_hash = h.pod<std::uint64_t>();
+  Reader r(b.substr(0, b.size() - 8), kHeader);
+  HostParticles& p = c.particles;
+  p.n = r.pod<std::int64_t>();
+  p.dim = r.pod<std::int32_t>();
+  const char* names[] = {"x", "v", "m", "sig", "sigf", "L", "eps", "e", "s"};
+  std::vector<double>* fields[] = {&p.x, &p.v, &p.m, &p.sig, &p.sigf, &p.L, &p.eps, &p.e, &p.s};
+  const size_t sizes[] = {size_t(p.dim), size_t(p.dim), 1, 6, 6, size_t(p.dim * p.dim), 1, 1, 1};
+  if (p.n < 0 || (p.dim != 2 && p.dim != 3)) Reader::fail("particle count or dimension out of range");
+  for (int k = 0; k < 9; ++k) {
+    *fields[k] = r.doubles(names[k]);
+    if (fields[k]->size() != sizes[k] * p.n)
+      Reader::fail(std::string("particle field ") + names[k] + " has " + std::to_string(fields[k]->size()) +
+                   " values for " + std::to_string(p.n) + " particles");
+  }
+
+  LoopState& s = c.loop;
+  s.t = r.pod<double>();
+  s.step = r.pod<std::int64_t>();
+  s.dt = r.pod<double>();
+  s.stage = r.pod<std::int32_t>();
+  s.t_stage_end = r.pod<double>();
+  s.next_sample = r.pod<double>();
+  s.next_out = r.pod<std::int64_t>();
+  s.frame_no = r.pod<std::int32_t>();
+  for (std::uint64_t k = 0, n = r.count(16, "frame list"); k < n; ++k) {
+    const double t = r.pod<double>();
+    s.pvd.emplace_back(t, r.str());
+  }
+  for (std::uint64_t k = 0, n = r.count(60, "run-out series"); k < n; ++k) {
+    SeriesRow row;
+    row.t = r.pod<double>();
+    row.t_flow = r.pod<double>();
+    row.stage = r.pod<std::int32_t>();
+    Measures& m = row.m;
+    for (double* v : {&m.runout, &m.height, &m.max_speed, &m.kinetic_energy, &m.mean_T, &m.max_T}) *v = r.pod<double>();
+    s.series.push_back(row);
+  }
+  for (std::uint64_t k = 0, n = r.count(104, "tracked series"); k < n; ++k) {
+    TrackRow row;
+    row.t = r.pod<double>();
+    row.t_flow = r.pod<double>();
+    row.track = r.pod<std::uint64_t>();
+    for (double* v : {&row.x, &row.y, &row.vx, &row.vy, &row.p, &row.q, &row.eps_pd, &row.T, &row.eta_c, &row.K_col})
+      *v = r.pod<double>();
+    s.tracks.push_back(row);
+  }
+  s.last_good = read_frame_light(r);
+  s.last_good_t = r.pod<double>();
+  s.consolidation.done = r.pod<std::uint8_t>() != 0;
+  s.consolidation.max_rel_error = r.pod<double>();
+  s.consolidation.base_sigma_v = r.pod<double>();
+  s.consolidation.base_rho_g_h = r.pod<double>();
+  for (long* v : {&s.stats.updates, &s.stats.substeps, &s.stats.substep_limit, &s.stats.tension_cutoff,
+                  &s.stats.vs_clamped, &s.stats.separated})
+    *v = r.pod<std::int64_t>();
+  s.wall_s = r.pod<double>();
+  if (r.at() != b.size() - 8) Reader::fail(std::to_string(b.size() - 8 - r.at()) + " unread bytes after the state");
+  if (s.series.empty()) Reader::fail("no run-out sample (a run samples t = 0 first)");
+  return c;
+}
+
+void write_checkpoint(const std::string& path, const Checkpoint& c) {
+  const std::string bytes = encode_checkpoint(c);
+  const std::string tmp = path + ".tmp";
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (fd < 0) throw std::runtime_error("cannot write " + tmp + ": " + std::strerror(errno));
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t k = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (k < 0 && errno == EINTR) continue;
+    if (k <= 0) {
+      const std::string why = std::strerror(errno);
+      ::close(fd);
+      ::unlink(tmp.c_str());
+      throw std::runtime_error("cannot write " + tmp + ": " + why + " (disk full?)");
+    }
+    done += static_cast<size_t>(k);
+  }
+  // on disk before the rename, so the name never points at a partly written file
+  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+    const std::string why = std::strerror(errno);
+    ::unlink(tmp.c_str());
+    throw std::runtime_error("cannot write " + tmp + ": " + why);
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw std::runtime_error("cannot rename " + tmp + " to " + path + ": " + ec.message());
+}
+
+Checkpoint read_checkpoint(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw CheckpointError("cannot open the checkpoint (" + std::string(std::strerror(errno)) + ")");
+  std::ostringstream os;
+  os << in.rdbuf();
+  return decode_checkpoint(os.str());
+}
+
+void check_checkpoint(const Checkpoint& c, const SceneSetup& su, std::uint64_t scene_hash) {
+  const Scene& sc = su.scene;
+  if (c.scene_hash != scene_hash)
+    throw CheckpointError("written for a different scene or parameter set (hash " + hex(c.scene_hash) +
+                          ", this scene " + hex(scene_hash) +
+                          "): restart with the scene file and parameter set it was written for, or start afresh "
+                          "with --force");
+  const LoopState& s = c.loop;
+  std::string why;
+  if (c.particles.n != su.particles.n || c.particles.dim != sc.dim)
+    why = std::to_string(c.particles.n) + " particles in " + std::to_string(c.particles.dim) + "D, the scene seeds " +
+          std::to_string(su.particles.n) + " in " + std::to_string(sc.dim) + "D";
+  else if (s.stage < 0 || s.stage >= static_cast<int>(sc.stages.size()))
+    why = "stage " + std::to_string(s.stage) + " of " + std::to_string(sc.stages.size());
+  else if (!(s.t >= 0 && s.t <= sc.duration() * (1 + 1e-12)) || !(s.dt > 0))
+    why = "t = " + num(s.t) + " s, dt = " + num(s.dt) + " s for a scene of " + num(sc.duration()) + " s";
+  else if (s.next_out < 0 || s.next_out > static_cast<long>(sc.output.times.size()))
+    why = "frame index " + std::to_string(s.next_out);
+  else if (s.last_good.n != su.particles.n)
+    why = "last good frame of " + std::to_string(s.last_good.n) + " points";
+  for (const TrackRow& r : s.tracks)
+    if (why.empty() && r.track >= sc.tracks.size()) why = "tracked point " + std::to_string(r.track);
+  if (!why.empty()) throw CheckpointError("does not fit the scene: " + why);
+}
+
+}  // namespace granflow::mpm
