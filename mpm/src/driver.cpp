@@ -8,6 +8,8 @@
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
+#include <string>
 
 #include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/kernels.hpp>
@@ -44,6 +46,25 @@ struct Polyline {
 };
 
 std::string stage_name(const Scene& sc, int i) { return sc.stages[i].name.empty() ? "stage" + std::to_string(i) : sc.stages[i].name; }
+
+// Steps to queue in a span. Fixed step: exactly those up to the end of the span (the host
+// repeats the span's arithmetic). Adaptive: an estimate from the current step, 2 % long; steps
+// queued past the end do nothing, and a short span is followed by another.
+long span_length(const Span& s, long cap) {
+  if (s.adaptive) {
+    const double est = (s.t_until - s.t) / s.dt;
+    if (!(est < double(cap))) return cap;
+    return std::clamp(static_cast<long>(std::ceil(1.02 * std::max(est, 0.0))) + 1, 1L, cap);
+  }
+  double t = s.t;
+  long n = 0;
+  while (n < cap) {
+    t += span_step_size(t, s.dt, s.t_land);
+    ++n;
+    if (span_reached(t, s.t_until)) break;
+  }
+  return n;
+}
 
 }  // namespace
 
@@ -225,13 +246,25 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
     runner.set_stage(si, st.damping, st.flip.value_or(sc.flip));
     t_stage_end += st.duration;
     while (t < t_stage_end - 1e-12 * t_stage_end && !stop) {
-      double h = dt;
-      // land on stage ends, samples and frames exactly
+      // Steps land on stage ends, samples and frames exactly. A span runs the steps up to the
+      // next one after which this loop has work (sample, frame, stage end, stop) with no host
+      // round-trip in between; its conditions are this loop's, so the steps are those of a
+      // step-by-step loop (the CPU twin's results are bitwise the same).
       double next_event = std::min(t_stage_end, next_sample);
       if (next_out < out_times.size()) next_event = std::min(next_event, t_release + out_times[next_out]);
-      if (t + h > next_event - 1e-9 * h && next_event > t) h = next_event - t;
-      const StepResult r = runner.step(h, sc.adaptive);
-      ++step;
+      double t_until = std::min(next_sample - 1e-12, t_stop - 1e-12);
+      if (next_out < out_times.size()) t_until = std::min(t_until, t_release + out_times[next_out] - 1e-12);
+      t_until = std::min(t_until, t_stage_end - 1e-12 * t_stage_end);
+      Span span;
+      span.t = t;
+      span.dt = dt;
+      span.adaptive = sc.adaptive;
+      span.dt_max = sc.dt;  // adaptive: the scene's dt is the largest step
+      span.t_land = next_event;
+      span.t_until = t_until;
+      span.max_steps = span_length(span, std::max(1L, opt.max_span));
+      const SpanResult r = runner.advance_span(span);
+      step += r.steps;
       if (!r.ok) {
         Frame bad;
         runner.frame(bad, false);
@@ -239,16 +272,17 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
         std::ostringstream os;
         os << "particle " << p << " at (" << bad.x[p] << ", " << bad.x[n + p];
         if (bad.dim == 3) os << ", " << bad.x[2 * n + p];
-        os << ") m: bad " << status_field(r.status) << " at step " << step << " (t = " << t + h << " s, stage '"
-           << stage_name(sc, si) << "'); the last good frame (t = " << last_good_t << " s) was written";
+        os << ") m: bad " << status_field(r.status) << " at step " << step << " (t = " << r.t + r.h_last
+           << " s, stage '" << stage_name(sc, si) << "'); the last good frame (t = " << last_good_t
+           << " s) was written";
         sum.ok = false;
         sum.message = os.str();
         write_frame(last_good, last_good_t, "_last_good");
         stop = true;
         break;
       }
-      t += h;
-      if (sc.adaptive) dt = std::min(r.dt_limit, sc.dt);  // adaptive: the scene's dt is the largest step
+      t = r.t;
+      dt = r.dt;
       if (t >= next_sample - 1e-12) {
         sample(t, si);
         next_sample += sc.output.series_dt;

@@ -12,6 +12,7 @@ struct RunOptions {
   std::string out_dir;    // empty: write nothing (tests)
   bool progress = true;   // progress line on stderr
   double stop_after = -1; // > 0: stop at this simulated time (short CPU throughput runs)
+  long max_span = 10000;  // most steps queued without a host round-trip (1: one per step)
 };
 
 // Run-out and height of a frame, measured along the scene's run-out polyline.
