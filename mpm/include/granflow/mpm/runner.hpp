@@ -128,6 +128,8 @@ class Runner {
   // CPU twin only (the CUDA backend records them per particle but does not sum them yet).
   virtual UpdateStats update_stats() const { return {}; }
   virtual std::string device() const = 0;
+  // Settings of the backend's fast paths and kernel resources (benchmark output).
+  virtual std::string config() const { return ""; }
   virtual long particles() const = 0;
   virtual long nodes() const = 0;
 };
@@ -168,9 +170,29 @@ inline StepResult Runner::advance(long nsteps, double dt, bool timing) {
   return out;
 }
 
+// Fast paths of the CUDA backend, each with a switch for comparisons (docs/mpm.md, "GPU step").
+struct CudaOptions {
+  bool graphs = true;         // replay captured chunks of steps as CUDA graphs
+  int graph_steps = 32;       // longest captured chunk (steps; rounded down to a power of two)
+  int sort_every = 32;        // reorder particles by cell every N steps (0: never)
+  enum class P2G { Atomic, Warp, Tile };
+  P2G p2g = P2G::Tile;        // scatter: atomics per particle / per run of a warp / block tile
+  int g2p_block = 128;        // threads per block of G2P + constitutive (at most 128 with the cap)
+  bool g2p_reg_cap = false;   // G2P + constitutive with at most 168 registers (12 warps/SM, more spills)
+};
+// Sets one option from its command-line spelling (graphs on|off, graph-steps N, sort N,
+// p2g atomic|warp|tile, g2p-block N, g2p-regcap on|off); false for an unknown name or value.
+bool set_cuda_option(CudaOptions& o, const std::string& name, const std::string& value);
+inline std::string describe(const CudaOptions& o) {
+  const char* p2g = o.p2g == CudaOptions::P2G::Atomic ? "atomic" : o.p2g == CudaOptions::P2G::Warp ? "warp" : "tile";
+  return std::string("graphs ") + (o.graphs ? "on (chunks up to " + std::to_string(o.graph_steps) + " steps)" : "off") +
+         ", sort " + (o.sort_every > 0 ? "every " + std::to_string(o.sort_every) + " steps" : "off") + ", p2g " + p2g +
+         ", g2p block " + std::to_string(o.g2p_block) + (o.g2p_reg_cap ? " (<= 168 registers)" : "");
+}
+
 std::unique_ptr<Runner> make_cpu_runner(const SceneSetup& setup);
 // Defined by the CUDA backend library; throws when CUDA was not built or no device exists.
-std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& setup);
+std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& setup, const CudaOptions& options = {});
 bool cuda_backend_available();
 
 }  // namespace granflow::mpm
