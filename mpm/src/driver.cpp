@@ -344,4 +344,81 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
   return sum;
 }
 
+BenchResult bench(const SceneSetup& su, Runner& r, const BenchOptions& o) {
+  using Clock = std::chrono::steady_clock;
+  const Scene& sc = su.scene;
+  r.set_stage(0, sc.stages[0].damping, sc.stages[0].flip.value_or(sc.flip));
+  double dt = sc.adaptive ? std::min(sc.dt, sc.cfl * su.dt_estimate) : sc.dt;
+  auto go = [&](long n, bool timing, bool per_step) {
+    long done = 0;
+    if (per_step) {
+      for (; done < n; ++done) {
+        const StepResult s = r.step(dt, sc.adaptive);
+        if (!s.ok)
+          throw std::runtime_error("benchmark step " + std::to_string(done + 1) + " failed at particle " +
+                                   std::to_string(s.particle) + ": " + status_field(s.status));
+        if (sc.adaptive) dt = span_next_dt(s.dt_limit, sc.dt);
+      }
+      return done;
+    }
+    Span sp;
+    sp.max_steps = n;
+    sp.dt = dt;
+    sp.adaptive = sc.adaptive;
+    sp.dt_max = sc.dt;
+    sp.timing = timing;
+    const SpanResult s = r.advance_span(sp);
+    if (!s.ok)
+      throw std::runtime_error("benchmark step " + std::to_string(s.steps) + " failed at particle " +
+                               std::to_string(s.particle) + ": " + status_field(s.status));
+    dt = s.dt;
+    return s.steps;
+  };
+  go(o.warmup, false, o.step_by_step);
+  r.reset_times();
+  BenchResult res;
+  const auto t0 = Clock::now();
+  res.steps = go(o.steps, false, o.step_by_step);
+  res.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  res.run = r.times();
+  if (res.run.steps > 0) {
+    res.split = res.run;  // the backend timed its phases in the run itself (CPU twin)
+  } else if (o.split_steps > 0) {
+    r.reset_times();
+    go(o.split_steps, true, false);
+    res.split = r.times();
+  }
+  return res;
+}
+
+std::string bench_report(const SceneSetup& su, const Runner& r, const BenchOptions& o, const BenchResult& b) {
+  const Scene& sc = su.scene;
+  char buf[512];
+  std::string out;
+  auto line = [&](const char* fmt, auto... a) {
+    std::snprintf(buf, sizeof buf, fmt, a...);
+    out += buf;
+  };
+  const double n = double(std::max(1L, b.steps));
+  line("scene: %s\ndevice: %s\nparticles: %ld\ngrid nodes: %ld\n", sc.name.c_str(), r.device().c_str(),
+       r.particles(), r.nodes());
+  line("steps: %ld (after %ld warm-up), %s\n", b.steps, o.warmup,
+       o.step_by_step ? "step by step (a host round-trip per step)" : "one span (no host round-trip)");
+  out += r.config();
+  line("wall: %.4f s\nparticle-updates/s: %.4g\ntime per step: %.2f us\n", b.wall_s, r.particles() * n / b.wall_s,
+       1e6 * b.wall_s / n);
+  if (b.run.span_steps > 0)
+    line("  device time per step (span events): %.2f us\n", 1e6 * b.run.device / double(b.run.span_steps));
+  if (b.split.steps > 0) {
+    const double m = double(b.split.steps);
+    const bool same = b.run.steps > 0;
+    line("phase split (%s, %ld steps):\n", same ? "same steps" : "separate timed span, a sync per step", b.split.steps);
+    line("  P2G: %.2f us\n  grid update: %.2f us\n  G2P + constitutive: %.2f us\n", 1e6 * b.split.p2g / m,
+         1e6 * b.split.grid / m, 1e6 * b.split.g2p / m);
+    if (b.split.sort > 0) line("  sort (amortised): %.2f us\n", 1e6 * b.split.sort / m);
+    line("  sum of phases: %.2f us\n", 1e6 * (b.split.p2g + b.split.grid + b.split.g2p + b.split.sort) / m);
+  }
+  return out;
+}
+
 }  // namespace granflow::mpm
