@@ -85,8 +85,33 @@ class SignalGuard {
   struct sigaction old_int_ {}, old_term_ {};
 };
 
-std::unique_ptr<mpm::Runner> make_runner(const mpm::SceneSetup& su, const std::string& backend) {
-  return backend == "cuda" ? mpm::make_cuda_runner(su) : mpm::make_cpu_runner(su);
+// The CUDA backend's options as given on the command line (name -> value, unset ones empty).
+struct CudaFlags {
+  std::string graphs, graph_steps, sort, p2g, g2p_block, g2p_regcap;
+  mpm::CudaOptions options() const {
+    mpm::CudaOptions o;
+    const std::pair<const char*, const std::string*> all[] = {{"graphs", &graphs}, {"graph-steps", &graph_steps},
+                                                              {"sort", &sort},     {"p2g", &p2g},
+                                                              {"g2p-block", &g2p_block}, {"g2p-regcap", &g2p_regcap}};
+    for (const auto& [name, value] : all)
+      if (!value->empty() && !mpm::set_cuda_option(o, name, *value))
+        throw io::InputError(std::string("--") + name + ": invalid value '" + *value + "'");
+    return o;
+  }
+  void add(CLI::App* cmd) {
+    cmd->add_option("--graphs", graphs, "CUDA: replay captured chunks of steps as graphs (on|off; default on)");
+    cmd->add_option("--graph-steps", graph_steps, "CUDA: longest captured chunk in steps (default 32)");
+    cmd->add_option("--sort", sort, "CUDA: reorder particles by cell every N steps (0: never; default 32)");
+    cmd->add_option("--p2g", p2g, "CUDA: P2G scatter atomic|warp|tile (default tile)");
+    cmd->add_option("--g2p-block", g2p_block, "CUDA: threads per block of G2P + constitutive (default 128)");
+    cmd->add_option("--g2p-regcap", g2p_regcap, "CUDA: G2P + constitutive with at most 168 registers (on|off)");
+  }
+};
+
+std::unique_ptr<mpm::Runner> make_runner(const mpm::SceneSetup& su, const std::string& backend,
+                                         const CudaFlags& flags) {
+  const mpm::CudaOptions co = flags.options();  // checked for either backend
+  return backend == "cuda" ? mpm::make_cuda_runner(su, co) : mpm::make_cpu_runner(su);
 }
 
 std::string locate_plot_script() {
@@ -100,6 +125,8 @@ struct MpmOptions {
   bool force = false, no_png = false, quiet = false, restart = false;
   double stop_after = -1;
   double checkpoint_every = -1;  // > 0 overrides output.checkpoint_dt
+  long span = 10000;
+  CudaFlags cuda;
 };
 
 // --restart: the checkpoint in `out`, read and checked against the scene (input errors).
@@ -146,7 +173,7 @@ void run_mpm(const MpmOptions& o) {
     for (const auto& e : fs::directory_iterator(out))
       if (e.is_regular_file()) fs::remove(e.path());
   }
-  auto runner = make_runner(su, o.backend);
+  auto runner = make_runner(su, o.backend, o.cuda);
   const mpm::Scene& sc = su.scene;
   std::fprintf(stderr, "granflow mpm: %s\n  %ld particles, %ld grid nodes, %s, %s, %s shape functions, %s\n",
                sc.name.c_str(), runner->particles(), runner->nodes(),
@@ -160,6 +187,7 @@ void run_mpm(const MpmOptions& o) {
   ro.out_dir = out;
   ro.progress = !o.quiet;
   ro.stop_after = o.stop_after;
+  ro.max_span = o.span;
   ro.checkpoint_dt = o.checkpoint_every > 0 ? o.checkpoint_every : sc.output.checkpoint_dt;
   ro.scene_hash = hash;
   ro.resume = resume ? &*resume : nullptr;
@@ -219,35 +247,21 @@ void run_mpm(const MpmOptions& o) {
 }
 
 struct BenchOptions {
-  std::string scene, backend = "cpu";
-  long steps = 200, warmup = 20;
+  std::string scene, backend = "cpu", loop = "span";
+  long steps = 200, warmup = 20, split = 100;
+  CudaFlags cuda;
 };
 
 void bench_mpm(const BenchOptions& o) {
   const mpm::SceneSetup su = setup_from_file(o.scene);
-  auto r = make_runner(su, o.backend);
-  const mpm::Scene& sc = su.scene;
-  r->set_stage(0, sc.stages[0].damping, sc.stages[0].flip.value_or(sc.flip));
-  double dt = sc.adaptive ? std::min(sc.dt, sc.cfl * su.dt_estimate) : sc.dt;
-  for (long i = 0; i < o.warmup; ++i) {
-    const mpm::StepResult s = r->step(dt, sc.adaptive);
-    if (sc.adaptive) dt = std::min(sc.dt, s.dt_limit);
-  }
-  r->reset_times();
-  const auto t0 = std::chrono::steady_clock::now();
-  for (long i = 0; i < o.steps; ++i) {
-    const mpm::StepResult s = r->step(dt, sc.adaptive);
-    if (sc.adaptive) dt = std::min(sc.dt, s.dt_limit);
-    if (!s.ok) throw std::runtime_error("benchmark step " + std::to_string(i) + " failed at particle " + std::to_string(s.particle));
-  }
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const mpm::PhaseTimes t = r->times();
-  std::printf("scene: %s\ndevice: %s\nparticles: %ld\ngrid nodes: %ld\nsteps: %ld (after %ld warm-up)\n",
-              sc.name.c_str(), r->device().c_str(), r->particles(), r->nodes(), o.steps, o.warmup);
-  std::printf("wall: %.4f s\nparticle-updates/s: %.4g\ntime per step: %.2f us\n", wall,
-              r->particles() * double(o.steps) / wall, 1e6 * wall / o.steps);
-  std::printf("  P2G:                %.2f us\n  grid update:        %.2f us\n  G2P + constitutive: %.2f us\n",
-              1e6 * t.p2g / o.steps, 1e6 * t.grid / o.steps, 1e6 * t.g2p / o.steps);
+  auto r = make_runner(su, o.backend, o.cuda);
+  mpm::BenchOptions bo;
+  bo.steps = o.steps;
+  bo.warmup = o.warmup;
+  bo.split_steps = o.split;
+  bo.step_by_step = o.loop == "step";
+  const mpm::BenchResult b = mpm::bench(su, *r, bo);
+  std::fputs(mpm::bench_report(su, *r, bo, b).c_str(), stdout);
 }
 
 }  // namespace
@@ -275,6 +289,9 @@ void register_mpm(CLI::App& app) {
   cmd->add_option("--png-fields", o->png_fields, "fields of the PNG snapshots (comma separated)");
   cmd->add_flag("--no-png", o->no_png, "do not call scripts/plot_mpm.py");
   cmd->add_flag("--quiet", o->quiet, "no progress line");
+  cmd->add_option("--span", o->span, "most steps queued without a host round-trip (1: one per step)")
+      ->check(CLI::PositiveNumber);
+  o->cuda.add(cmd);
   cmd->callback([o] { run_mpm(*o); });
 }
 
@@ -285,6 +302,11 @@ void register_bench_mpm(CLI::App& bench) {
   cmd->add_option("--steps", o->steps, "timed steps")->check(CLI::PositiveNumber);
   cmd->add_option("--warmup", o->warmup, "untimed steps first")->check(CLI::NonNegativeNumber);
   cmd->add_option("--backend", o->backend, "cpu or cuda")->check(CLI::IsMember({"cpu", "cuda"}));
+  cmd->add_option("--loop", o->loop, "span: the timed steps as one span; step: a host round-trip per step")
+      ->check(CLI::IsMember({"span", "step"}));
+  cmd->add_option("--split", o->split, "steps of the separate timed span for the per-phase split (0: none)")
+      ->check(CLI::NonNegativeNumber);
+  o->cuda.add(cmd);
   cmd->callback([o] { bench_mpm(*o); });
 }
 

@@ -5,7 +5,7 @@
 
 namespace granflow::mpm {
 
-std::unique_ptr<Runner> make_cuda_runner(const SceneSetup&) {
+std::unique_ptr<Runner> make_cuda_runner(const SceneSetup&, const CudaOptions&) {
   throw std::runtime_error("this granflow was built without CUDA (nvcc not found); use --backend cpu");
 }
 bool cuda_backend_available() { return false; }

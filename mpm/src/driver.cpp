@@ -8,6 +8,8 @@
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
+#include <string>
 
 #include <granflow/mpm/checkpoint.hpp>
 #include <granflow/mpm/driver.hpp>
@@ -45,6 +47,25 @@ struct Polyline {
 };
 
 std::string stage_name(const Scene& sc, int i) { return sc.stages[i].name.empty() ? "stage" + std::to_string(i) : sc.stages[i].name; }
+
+// Steps to queue in a span. Fixed step: exactly those up to the end of the span (the host
+// repeats the span's arithmetic). Adaptive: an estimate from the current step, 2 % long; steps
+// queued past the end do nothing, and a short span is followed by another.
+long span_length(const Span& s, long cap) {
+  if (s.adaptive) {
+    const double est = (s.t_until - s.t) / s.dt;
+    if (!(est < double(cap))) return cap;
+    return std::clamp(static_cast<long>(std::ceil(1.02 * std::max(est, 0.0))) + 1, 1L, cap);
+  }
+  double t = s.t;
+  long n = 0;
+  while (n < cap) {
+    t += span_step_size(t, s.dt, s.t_land);
+    ++n;
+    if (span_reached(t, s.t_until)) break;
+  }
+  return n;
+}
 
 }  // namespace
 
@@ -324,14 +345,26 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
     if (!resumed) t_stage_end += st.duration;  // a checkpoint holds the end of its stage
     resumed = false;
     while (t < t_stage_end - 1e-12 * t_stage_end && !stop) {
-      double h = dt;
-      // land on stage ends, samples and frames exactly
+      // Steps land on stage ends, samples and frames exactly. A span runs the steps up to the
+      // next one after which this loop has work (sample, frame, stage end, stop) with no host
+      // round-trip in between; its conditions are this loop's, so the steps are those of a
+      // step-by-step loop (the CPU twin's results are bitwise the same).
       double next_event = std::min(t_stage_end, next_sample);
-      if (next_out < static_cast<long>(out_times.size()))
-        next_event = std::min(next_event, t_release + out_times[next_out]);
-      if (t + h > next_event - 1e-9 * h && next_event > t) h = next_event - t;
-      const StepResult r = runner.step(h, sc.adaptive);
-      ++step;
+      if (next_out < static_cast<long>(out_times.size())) next_event = std::min(next_event, t_release + out_times[next_out]);
+      double t_until = std::min(next_sample - 1e-12, t_stop - 1e-12);
+      if (next_out < static_cast<long>(out_times.size())) t_until = std::min(t_until, t_release + out_times[next_out] - 1e-12);
+      t_until = std::min(t_until, t_stage_end - 1e-12 * t_stage_end);
+      if (ck_dt > 0) t_until = std::min(t_until, next_ckpt - 1e-9 * ck_dt);  // checkpoint after that step
+      Span span;
+      span.t = t;
+      span.dt = dt;
+      span.adaptive = sc.adaptive;
+      span.dt_max = sc.dt;  // adaptive: the scene's dt is the largest step
+      span.t_land = next_event;
+      span.t_until = t_until;
+      span.max_steps = span_length(span, std::max(1L, opt.max_span));
+      const SpanResult r = runner.advance_span(span);
+      step += r.steps;
       if (!r.ok) {
         Frame bad;
         runner.frame(bad, false);
@@ -339,16 +372,17 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
         std::ostringstream os;
         os << "particle " << p << " at (" << bad.x[p] << ", " << bad.x[n + p];
         if (bad.dim == 3) os << ", " << bad.x[2 * n + p];
-        os << ") m: bad " << status_field(r.status) << " at step " << step << " (t = " << t + h << " s, stage '"
-           << stage_name(sc, si) << "'); the last good frame (t = " << last_good_t << " s) was written";
+        os << ") m: bad " << status_field(r.status) << " at step " << step << " (t = " << r.t + r.h_last
+           << " s, stage '" << stage_name(sc, si) << "'); the last good frame (t = " << last_good_t
+           << " s) was written";
         sum.ok = false;
         sum.message = os.str();
         write_frame(last_good, last_good_t, "_last_good");
         stop = true;
         break;
       }
-      t += h;
-      if (sc.adaptive) dt = std::min(r.dt_limit, sc.dt);  // adaptive: the scene's dt is the largest step
+      t = r.t;
+      dt = r.dt;
       if (t >= next_sample - 1e-12) {
         sample(t, si);
         next_sample += sc.output.series_dt;
@@ -412,6 +446,83 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
     }
   }
   return sum;
+}
+
+BenchResult bench(const SceneSetup& su, Runner& r, const BenchOptions& o) {
+  using Clock = std::chrono::steady_clock;
+  const Scene& sc = su.scene;
+  r.set_stage(0, sc.stages[0].damping, sc.stages[0].flip.value_or(sc.flip));
+  double dt = sc.adaptive ? std::min(sc.dt, sc.cfl * su.dt_estimate) : sc.dt;
+  auto go = [&](long n, bool timing, bool per_step) {
+    long done = 0;
+    if (per_step) {
+      for (; done < n; ++done) {
+        const StepResult s = r.step(dt, sc.adaptive);
+        if (!s.ok)
+          throw std::runtime_error("benchmark step " + std::to_string(done + 1) + " failed at particle " +
+                                   std::to_string(s.particle) + ": " + status_field(s.status));
+        if (sc.adaptive) dt = span_next_dt(s.dt_limit, sc.dt);
+      }
+      return done;
+    }
+    Span sp;
+    sp.max_steps = n;
+    sp.dt = dt;
+    sp.adaptive = sc.adaptive;
+    sp.dt_max = sc.dt;
+    sp.timing = timing;
+    const SpanResult s = r.advance_span(sp);
+    if (!s.ok)
+      throw std::runtime_error("benchmark step " + std::to_string(s.steps) + " failed at particle " +
+                               std::to_string(s.particle) + ": " + status_field(s.status));
+    dt = s.dt;
+    return s.steps;
+  };
+  go(o.warmup, false, o.step_by_step);
+  r.reset_times();
+  BenchResult res;
+  const auto t0 = Clock::now();
+  res.steps = go(o.steps, false, o.step_by_step);
+  res.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  res.run = r.times();
+  if (res.run.steps > 0) {
+    res.split = res.run;  // the backend timed its phases in the run itself (CPU twin)
+  } else if (o.split_steps > 0) {
+    r.reset_times();
+    go(o.split_steps, true, false);
+    res.split = r.times();
+  }
+  return res;
+}
+
+std::string bench_report(const SceneSetup& su, const Runner& r, const BenchOptions& o, const BenchResult& b) {
+  const Scene& sc = su.scene;
+  char buf[512];
+  std::string out;
+  auto line = [&](const char* fmt, auto... a) {
+    std::snprintf(buf, sizeof buf, fmt, a...);
+    out += buf;
+  };
+  const double n = double(std::max(1L, b.steps));
+  line("scene: %s\ndevice: %s\nparticles: %ld\ngrid nodes: %ld\n", sc.name.c_str(), r.device().c_str(),
+       r.particles(), r.nodes());
+  line("steps: %ld (after %ld warm-up), %s\n", b.steps, o.warmup,
+       o.step_by_step ? "step by step (a host round-trip per step)" : "one span (no host round-trip)");
+  out += r.config();
+  line("wall: %.4f s\nparticle-updates/s: %.4g\ntime per step: %.2f us\n", b.wall_s, r.particles() * n / b.wall_s,
+       1e6 * b.wall_s / n);
+  if (b.run.span_steps > 0)
+    line("  device time per step (span events): %.2f us\n", 1e6 * b.run.device / double(b.run.span_steps));
+  if (b.split.steps > 0) {
+    const double m = double(b.split.steps);
+    const bool same = b.run.steps > 0;
+    line("phase split (%s, %ld steps):\n", same ? "same steps" : "separate timed span, a sync per step", b.split.steps);
+    line("  P2G: %.2f us\n  grid update: %.2f us\n  G2P + constitutive: %.2f us\n", 1e6 * b.split.p2g / m,
+         1e6 * b.split.grid / m, 1e6 * b.split.g2p / m);
+    if (b.split.sort > 0) line("  sort (amortised): %.2f us\n", 1e6 * b.split.sort / m);
+    line("  sum of phases: %.2f us\n", 1e6 * (b.split.p2g + b.split.grid + b.split.g2p + b.split.sort) / m);
+  }
+  return out;
 }
 
 }  // namespace granflow::mpm

@@ -3,7 +3,9 @@
 //
 //   granflow-mpm column|flume [--h H] [--dt DT] [--time T] [--model pt|frictional]
 //                [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR]
-//                [--stop-after T] [--bench N [--warmup M]]
+//                [--stop-after T] [--span N] [--bench N [--warmup M] [--loop span|step] [--split N]]
+//                [CUDA options: --graphs on|off --graph-steps N --sort N --p2g atomic|warp|tile
+//                 --g2p-block N --g2p-regcap on|off]
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -21,8 +23,12 @@ int usage() {
   std::fprintf(stderr,
                "usage: granflow-mpm column|flume [--h H] [--dt DT] [--time T] [--model pt|frictional]\n"
                "       [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR] [--stop-after T]\n"
-               "       [--bench N [--warmup M]]\n"
-               "defaults: quadratic B-spline; column h 0.001 dt 1e-5 time 1.0; flume h 0.005 dt 1e-6 time 3.0\n");
+               "       [--span N] [--bench N [--warmup M] [--loop span|step] [--split N]]\n"
+               "       CUDA: [--graphs on|off] [--graph-steps N] [--sort N] [--p2g atomic|warp|tile]\n"
+               "             [--g2p-block N] [--g2p-regcap on|off]\n"
+               "defaults: quadratic B-spline; column h 0.001 dt 1e-5 time 1.0; flume h 0.005 dt 1e-6 time 3.0;\n"
+               "--span: most steps without a host round-trip (1: one per step; default 10000);\n"
+               "CUDA defaults: graphs on, graph-steps 32, sort 32, p2g tile, g2p-block 128, g2p-regcap off\n");
   return 2;
 }
 
@@ -37,7 +43,10 @@ int main(int argc, char** argv) {
   ModelKind model = ModelKind::PhaseTransition;
   ShapeKind shape = ShapeKind::QuadraticBSpline;  // linear is unstable at 2.5 and 1 mm (docs/mpm.md)
   std::string backend = "cpu", out;
-  long bench = 0, warmup = 10;
+  long bench = 0, span = 10000;
+  BenchOptions bo;
+  bo.warmup = 10;
+  CudaOptions copt;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 >= argc) return usage();
@@ -51,44 +60,42 @@ int main(int argc, char** argv) {
     else if (a == "--backend") backend = v;
     else if (a == "--out") out = v;
     else if (a == "--bench") bench = std::atol(v);
-    else if (a == "--warmup") warmup = std::atol(v);
+    else if (a == "--warmup") bo.warmup = std::atol(v);
+    else if (a == "--split") bo.split_steps = std::atol(v);
+    else if (a == "--span") span = std::atol(v);
+    else if (a == "--loop" && (std::strcmp(v, "span") == 0 || std::strcmp(v, "step") == 0)) bo.step_by_step = std::strcmp(v, "step") == 0;
+    else if (a.rfind("--", 0) == 0 && set_cuda_option(copt, a.substr(2), v)) continue;
     else return usage();
   }
   try {
     const Scene sc = column ? column_scene(h, dt, model, shape, time) : flume_scene(h, dt, model, shape, time);
     const SceneSetup su = make_setup(sc);
-    auto r = backend == "cuda" ? make_cuda_runner(su) : make_cpu_runner(su);
+    auto r = backend == "cuda" ? make_cuda_runner(su, copt) : make_cpu_runner(su);
     std::fprintf(stderr, "%s: %ld particles, %ld nodes, %s\n", sc.name.c_str(), r->particles(), r->nodes(),
                  r->device().c_str());
     if (bench > 0) {
-      r->set_stage(0, sc.stages[0].damping, sc.flip);
-      for (long i = 0; i < warmup; ++i) r->step(sc.dt, false);
-      r->reset_times();
-      const auto t0 = std::chrono::steady_clock::now();
-      for (long i = 0; i < bench; ++i)
-        if (!r->step(sc.dt, false).ok) throw std::runtime_error("step failed");
-      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      const PhaseTimes t = r->times();
-      std::printf("scene: %s\ndevice: %s\nparticles: %ld\ngrid nodes: %ld\nsteps: %ld (after %ld warm-up)\n"
-                  "wall: %.4f s\nparticle-updates/s: %.4g\ntime per step: %.2f us\n  P2G: %.2f us\n"
-                  "  grid update: %.2f us\n  G2P + constitutive: %.2f us\n",
-                  sc.name.c_str(), r->device().c_str(), r->particles(), r->nodes(), bench, warmup, wall,
-                  r->particles() * double(bench) / wall, 1e6 * wall / bench, 1e6 * t.p2g / bench,
-                  1e6 * t.grid / bench, 1e6 * t.g2p / bench);
+      bo.steps = bench;
+      const BenchResult b = granflow::mpm::bench(su, *r, bo);
+      std::fputs(bench_report(su, *r, bo, b).c_str(), stdout);
       return 0;
     }
     RunOptions opt;
     opt.out_dir = out;
     opt.stop_after = stop;
+    opt.max_span = span;
     const RunSummary s = run(su, *r, opt);
     std::printf("scene: %s\ndevice: %s\nparticles: %ld\nsteps: %ld\nsimulated: %.6g s\nwall: %.3f s\n"
                 "particle-updates/s: %.4g\nfinal run-out: %.4f m\nfinal height: %.4f m\n",
                 sc.name.c_str(), s.device.c_str(), r->particles(), s.steps, s.t_end, s.wall_s,
                 r->particles() * double(s.steps) / s.wall_s, s.final.runout, s.final.height);
-    if (s.steps > 0)
+    if (s.steps > 0 && s.times.steps > 0)
       std::printf("kernel time per step: P2G %.2f us, grid %.2f us, G2P + constitutive %.2f us; wall per step %.2f us\n",
-                  1e6 * s.times.p2g / s.steps, 1e6 * s.times.grid / s.steps, 1e6 * s.times.g2p / s.steps,
-                  1e6 * s.wall_s / s.steps);
+                  1e6 * s.times.p2g / s.times.steps, 1e6 * s.times.grid / s.times.steps,
+                  1e6 * s.times.g2p / s.times.steps, 1e6 * s.wall_s / s.steps);
+    if (s.steps > 0 && s.times.span_steps > 0)
+      std::printf("device time per step (spans): %.2f us; wall per step %.2f us; %s\n",
+                  1e6 * s.times.device / s.times.span_steps, 1e6 * s.wall_s / s.steps,
+                  backend == "cuda" ? describe(copt).c_str() : "CPU twin");
     if (s.consolidation.done)
       std::printf("after stage 1: base sigma_v %.1f Pa vs rho g h %.1f Pa, max rel. error %.3f\n",
                   s.consolidation.base_sigma_v, s.consolidation.base_rho_g_h, s.consolidation.max_rel_error);

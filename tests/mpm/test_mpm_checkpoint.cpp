@@ -131,6 +131,12 @@ class InterruptAfter final : public Runner {
     if (--left_ == 0) flag_ = SIGINT;
     return s;
   }
+  // The driver sees the flag at the end of a span: end the span at the chosen step.
+  SpanResult advance_span(const Span& s) override {
+    Span t = s;
+    if (left_ > 0 && left_ < t.max_steps) t.max_steps = left_;
+    return Runner::advance_span(t);
+  }
   void frame(Frame& o, bool d, const std::vector<long>& sub) override { r_.frame(o, d, sub); }
   void download(HostParticles& o) override { r_.download(o); }
   void upload(const HostParticles& i) override { r_.upload(i); }

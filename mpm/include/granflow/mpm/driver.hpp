@@ -23,6 +23,7 @@ struct RunOptions {
   const Checkpoint* resume = nullptr;    // continue from this state (checked by the caller)
   // Polled after every step; non-zero (a signal number): checkpoint, write the CSVs, stop.
   const volatile std::sig_atomic_t* interrupt = nullptr;
+  long max_span = 10000;  // most steps queued without a host round-trip (1: one per step)
 };
 
 // Run-out and height of a frame, measured along the scene's run-out polyline.
@@ -69,6 +70,25 @@ struct RunSummary {
 };
 
 RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt);
+
+// Throughput of the first stage after a warm-up (granflow bench mpm, granflow-mpm --bench).
+// The timed steps run as one span (or step by step, a host round-trip each: the old loop);
+// the per-phase split comes from a separate timed span where the backend does not time its
+// production spans (CUDA: events around each phase and a synchronisation per step).
+struct BenchOptions {
+  long steps = 200, warmup = 20;
+  bool step_by_step = false;
+  long split_steps = 100;  // steps of the separate timed span (0: none)
+};
+struct BenchResult {
+  long steps = 0;
+  double wall_s = 0;
+  PhaseTimes run;    // of the timed steps (CUDA: device time only)
+  PhaseTimes split;  // per-phase times (CPU: of the timed steps)
+};
+BenchResult bench(const SceneSetup& su, Runner& runner, const BenchOptions& opt);
+// The figures as printed by both commands (scene, device, options, times per step).
+std::string bench_report(const SceneSetup& su, const Runner& runner, const BenchOptions& opt, const BenchResult& r);
 
 // Writers (files are written to a temporary name and renamed when complete).
 void write_vtu(const std::string& path, const Frame& fr, bool binary);

@@ -4,11 +4,13 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "scene.hpp"
+#include "span.hpp"
 
 namespace granflow::mpm {
 
@@ -45,11 +47,40 @@ struct StepResult {
   long particle = -1;
   std::uint32_t status = 0;
   double dt_limit = 0;  // smallest stable step over particles (when asked for)
+  long steps = 0;       // advance: steps taken, the failed one included (it is the last)
+};
+
+// A span of steps run without host round-trips (Runner::advance_span). Each step has the size
+// span_step_size(t, dt, t_land); adaptive spans take the next dt from the stable limit of the
+// new state (span_next_dt with dt_max). The span ends after the first step that reaches
+// t >= t_until, after max_steps steps, or on a failed step.
+struct Span {
+  long max_steps = 1;
+  double t = 0;           // time at the start
+  double dt = 0;          // step size (adaptive: of the first step) before landing
+  bool adaptive = false;
+  double dt_max = 0;      // adaptive: the largest step
+  double t_land = std::numeric_limits<double>::infinity();
+  double t_until = std::numeric_limits<double>::infinity();
+  bool timing = false;    // time the phases of every step (benchmarks; costs a sync per step)
+};
+
+struct SpanResult {
+  bool ok = true;
+  long particle = -1;        // first bad particle (index of the set-up's order)
+  std::uint32_t status = 0;
+  long steps = 0;            // steps taken, the failed one included
+  double t = 0;              // time after the last good step
+  double dt = 0;             // step size for the next span (adaptive: from the last good step)
+  double h_last = 0;         // size of the last step taken (the failed one on failure)
 };
 
 struct PhaseTimes {
-  double p2g = 0, grid = 0, g2p = 0;  // seconds, accumulated
-  long steps = 0;
+  double p2g = 0, grid = 0, g2p = 0;  // seconds, accumulated (CUDA: only in timed spans)
+  double sort = 0;                    // CUDA: reordering particles by cell (timed spans)
+  double device = 0;                  // CUDA: device time of all spans (start to end event)
+  long steps = 0;                     // steps in the phase times
+  long span_steps = 0;                // steps in `device`
 };
 
 // What the constitutive updates reported, summed over particles and steps.
@@ -83,6 +114,12 @@ class Runner {
   virtual void set_stage(int stage, double damping, double flip) = 0;
   // One explicit step; want_dt_limit asks for the smallest stable step of the new state.
   virtual StepResult step(double dt, bool want_dt_limit) = 0;
+  // A span of steps with no host round-trip in between (CUDA: the steps are queued, the
+  // step size and the failure flag stay on the device, one synchronisation at the end). The
+  // default is the host loop over step(): its results are the step-by-step ones, bitwise.
+  virtual SpanResult advance_span(const Span& s);
+  // nsteps steps of size dt (benchmarks); result.steps counts the steps taken.
+  StepResult advance(long nsteps, double dt, bool timing = false);
   // Copies the state to the host; with diagnostics the derived fields of Frame are filled.
   virtual void frame(Frame& out, bool diagnostics, const std::vector<long>& subset = {}) = 0;
   virtual void download(HostParticles& out) = 0;
@@ -93,13 +130,71 @@ class Runner {
   // CPU twin only (the CUDA backend records them per particle but does not sum them yet).
   virtual UpdateStats update_stats() const { return {}; }
   virtual std::string device() const = 0;
+  // Settings of the backend's fast paths and kernel resources (benchmark output).
+  virtual std::string config() const { return ""; }
   virtual long particles() const = 0;
   virtual long nodes() const = 0;
 };
 
+inline SpanResult Runner::advance_span(const Span& s) {
+  SpanResult r;
+  r.t = s.t;
+  r.dt = s.dt;
+  for (long k = 0; k < s.max_steps; ++k) {
+    const double h = span_step_size(r.t, r.dt, s.t_land);
+    const StepResult st = step(h, s.adaptive);
+    ++r.steps;
+    r.h_last = h;
+    if (!st.ok) {
+      r.ok = false;
+      r.particle = st.particle;
+      r.status = st.status;
+      return r;
+    }
+    r.t += h;
+    if (s.adaptive) r.dt = span_next_dt(st.dt_limit, s.dt_max);
+    if (span_reached(r.t, s.t_until)) break;
+  }
+  return r;
+}
+
+inline StepResult Runner::advance(long nsteps, double dt, bool timing) {
+  Span s;
+  s.max_steps = nsteps;
+  s.dt = dt;
+  s.timing = timing;
+  const SpanResult r = advance_span(s);
+  StepResult out;
+  out.ok = r.ok;
+  out.particle = r.particle;
+  out.status = r.status;
+  out.steps = r.steps;
+  return out;
+}
+
+// Fast paths of the CUDA backend, each with a switch for comparisons (docs/mpm.md, "GPU step").
+struct CudaOptions {
+  bool graphs = true;         // replay captured chunks of steps as CUDA graphs
+  int graph_steps = 32;       // longest captured chunk (steps; rounded down to a power of two)
+  int sort_every = 32;        // reorder particles by cell every N steps (0: never)
+  enum class P2G { Atomic, Warp, Tile };
+  P2G p2g = P2G::Tile;        // scatter: atomics per particle / per run of a warp / block tile
+  int g2p_block = 128;        // threads per block of G2P + constitutive (at most 128 with the cap)
+  bool g2p_reg_cap = false;   // G2P + constitutive with at most 168 registers (12 warps/SM, more spills)
+};
+// Sets one option from its command-line spelling (graphs on|off, graph-steps N, sort N,
+// p2g atomic|warp|tile, g2p-block N, g2p-regcap on|off); false for an unknown name or value.
+bool set_cuda_option(CudaOptions& o, const std::string& name, const std::string& value);
+inline std::string describe(const CudaOptions& o) {
+  const char* p2g = o.p2g == CudaOptions::P2G::Atomic ? "atomic" : o.p2g == CudaOptions::P2G::Warp ? "warp" : "tile";
+  return std::string("graphs ") + (o.graphs ? "on (chunks up to " + std::to_string(o.graph_steps) + " steps)" : "off") +
+         ", sort " + (o.sort_every > 0 ? "every " + std::to_string(o.sort_every) + " steps" : "off") + ", p2g " + p2g +
+         ", g2p block " + std::to_string(o.g2p_block) + (o.g2p_reg_cap ? " (<= 168 registers)" : "");
+}
+
 std::unique_ptr<Runner> make_cpu_runner(const SceneSetup& setup);
 // Defined by the CUDA backend library; throws when CUDA was not built or no device exists.
-std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& setup);
+std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& setup, const CudaOptions& options = {});
 bool cuda_backend_available();
 
 }  // namespace granflow::mpm
