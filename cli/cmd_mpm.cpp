@@ -101,8 +101,8 @@ struct CudaFlags {
   void add(CLI::App* cmd) {
     cmd->add_option("--graphs", graphs, "CUDA: replay captured chunks of steps as graphs (on|off; default on)");
     cmd->add_option("--graph-steps", graph_steps, "CUDA: longest captured chunk in steps (default 32)");
-    cmd->add_option("--sort", sort, "CUDA: reorder particles by cell every N steps (0: never; default 32)");
-    cmd->add_option("--p2g", p2g, "CUDA: P2G scatter atomic|warp|tile (default tile)");
+    cmd->add_option("--sort", sort, "CUDA: reorder particles by cell every N steps (0: never; default 0)");
+    cmd->add_option("--p2g", p2g, "CUDA: P2G scatter atomic|warp|tile (default atomic)");
     cmd->add_option("--g2p-block", g2p_block, "CUDA: threads per block of G2P + constitutive (default 128)");
     cmd->add_option("--g2p-regcap", g2p_regcap, "CUDA: G2P + constitutive with at most 168 registers (on|off)");
   }

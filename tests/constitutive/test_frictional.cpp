@@ -396,6 +396,35 @@ TEST(Frictional, ReturnMapEndsOnTheSurfaceAndConvergesToTheRateSolution) {
   EXPECT_LT(e3, 0.1);  // 200 increments of 1e-4 through the steep pressure dip: 6 %
 }
 
+TEST(Frictional, ReturnMapJacobianMatchesCentralDifferences) {
+  // The Newton iteration of the return map uses the analytic Jacobian of its residual in
+  // (p, dLambda); central differences of the residual itself are the independent reference.
+  for (const auto& m : {test::table1(), test::table3_collapse().f}) {
+    for (double e1 : {0.70, 0.85, 0.97}) {
+      for (double x : {-0.9, 0.0, 0.7}) {
+        const detail::ReturnMapResidual<SMC, double> res{m,    80e3, 60e3, x, 4e7, 3e7, 0.02, e1, 80e3 + m.p_min,
+                                                         std::tan(m.phi_c), std::log(m.e_ref / e1)};
+        for (double p : {50.0, 5e3, 70e3}) {
+          for (double dL : {0.0, 1e-4, 1e-3}) {
+            const auto v = res(p, dL);
+            const double hp = 1e-6 * p, hl = 1e-7;
+            const auto pp = res(p + hp, dL), pm = res(p - hp, dL);
+            // central in dLambda, or the second-order one-sided formula at dLambda = 0
+            const auto l1 = res(p, dL + hl), l2 = res(p, dL + 2 * hl), lm = res(p, dL > 0 ? dL - hl : dL);
+            const double dR1_dL = dL > 0 ? (l1.R1 - lm.R1) / (2 * hl) : (-3 * v.R1 + 4 * l1.R1 - l2.R1) / (2 * hl);
+            const double dR2_dL = dL > 0 ? (l1.R2 - lm.R2) / (2 * hl) : (-3 * v.R2 + 4 * l1.R2 - l2.R2) / (2 * hl);
+            auto near = [](double a, double b) { return std::fabs(a - b) <= 1e-5 * std::fabs(b) + 1e-9; };
+            EXPECT_TRUE(near(v.dR1_dp, (pp.R1 - pm.R1) / (2 * hp))) << p << " " << dL << " " << v.dR1_dp;
+            EXPECT_TRUE(near(v.dR2_dp, (pp.R2 - pm.R2) / (2 * hp))) << p << " " << dL << " " << v.dR2_dp;
+            EXPECT_TRUE(near(v.dR1_dL, dR1_dL)) << p << " " << dL << " " << v.dR1_dL;
+            EXPECT_TRUE(near(v.dR2_dL, dR2_dL)) << p << " " << dL << " " << v.dR2_dL;
+          }
+        }
+      }
+    }
+  }
+}
+
 TEST(Frictional, ReturnMapHandlesLargeIncrementsAtLowPressure) {
   // Free-surface situation: 2 G deps is hundreds of times p. The return converges in a few
   // iterations (no fallback), ends on the surface or at the cut-off, never NaN.

@@ -451,7 +451,7 @@ GF_HDI UpdateInfo frictional_increment(const FrictionalParams<S>& mp, Frictional
 // Lode angle is the trial one and the return has two unknowns, p and dLambda:
 //   R1 = p - p_tr + K_tr dLambda Dg(p, q, e1) = 0                   (volumetric)
 //   R2 = q / max(p, p_min) - g M_p(p, e1) h(eps_n + dLambda) = 0    (yield condition)
-// with q = q_tr - 3 G_tr dLambda. Newton with a forward-difference Jacobian and step halving.
+// with q = q_tr - 3 G_tr dLambda. Newton with the exact Jacobian and step halving.
 // A root with p <= 0 means the skeleton opened within the increment (tension cut-off).
 // Unconditionally stable: a large increment at low pressure (the free surface of a flow, where
 // 2 G deps can exceed p many times) costs a few iterations instead of hundreds of explicit
@@ -467,26 +467,41 @@ struct ReturnMapResidual {
 
   struct Value {
     S R1, R2, q;
-    S dR1_dL, dR2_dL;  // exact (at fixed p, Gm and the dilatancy angle do not depend on dLambda)
+    S dR1_dp, dR1_dL, dR2_dp, dR2_dL;  // exact Jacobian
   };
 
   GF_HDI Value operator()(S p, S dL) const {
     Value v;
     v.q = q_tr - S(3) * G * dL;
-    const S pe = p > mp.p_min ? p : mp.p_min;
+    const bool floored = !(p > mp.p_min);
+    const S pe = floored ? mp.p_min : p;
     const S r = v.q / pe;
     // ln(e_c / e1) with e_c of Eq. (16): both angles from one power of p and two exp.
-    const S lr = log_eref_e1 - mp.lambda_c * std::pow(pe / mp.p_at, mp.xi);
+    const S xpow = std::pow(pe / mp.p_at, mp.xi);
+    const S lr = log_eref_e1 - mp.lambda_c * xpow;
     const S tan_p = std::exp(mp.n_p * lr) * tan_c;
     const S tan_pt = std::exp(-mp.n_d * lr) * tan_c;
     const S sin_p = sin_of_tan(tan_p), sin_pt = sin_of_tan(tan_pt);
-    const S Gm = lode_factor<L>(x, sin_p).g * stress_ratio_of_angle(sin_p);
-    const S Dg = mp.A_d * (lode_factor<L>(x, sin_pt).g * stress_ratio_of_angle(sin_pt) - r);
+    const LodeFactor<S> gp = lode_factor<L>(x, sin_p), gpt = lode_factor<L>(x, sin_pt);
+    const S M_p = stress_ratio_of_angle(sin_p), M_pt = stress_ratio_of_angle(sin_pt);
+    const S Gm = gp.g * M_p;
+    const S Dg = mp.A_d * (gpt.g * M_pt - r);
     const S eps = eps_n + dL;
+    const S h = eps / (mp.k_p + eps);
     v.R1 = (p - p_tr + K * dL * Dg) / scale;
-    v.R2 = r - Gm * eps / (mp.k_p + eps);
+    v.R2 = r - Gm * h;
+    // p enters through r = q / p and ln(e_c/e1) (both frozen below the floor p_min).
+    const S dlr_dp = floored ? S(0) : -mp.lambda_c * mp.xi * xpow / pe;
+    const S dr_dp = floored ? S(0) : -r / pe;
+    auto dgM_dsin = [](const LodeFactor<S>& g, S M, S sn) {
+      return g.g * S(18) / ((S(3) - sn) * (S(3) - sn)) + M * g.dg_dsin;
+    };
+    const S dGm_dp = dgM_dsin(gp, M_p, sin_p) * dsin_dtan(tan_p) * mp.n_p * tan_p * dlr_dp;
+    const S dGpt_dp = dgM_dsin(gpt, M_pt, sin_pt) * dsin_dtan(tan_pt) * (-mp.n_d) * tan_pt * dlr_dp;
     const S dr_dL = S(-3) * G / pe;
+    v.dR1_dp = (S(1) + K * dL * mp.A_d * (dGpt_dp - dr_dp)) / scale;
     v.dR1_dL = K * (Dg - mp.A_d * dL * dr_dL) / scale;
+    v.dR2_dp = dr_dp - dGm_dp * h;
     v.dR2_dL = dr_dL - Gm * mp.k_p / ((mp.k_p + eps) * (mp.k_p + eps));
     return v;
   }
@@ -540,12 +555,8 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
       converged = true;
       break;
     }
-    // Jacobian: forward difference in p (through e_c, the angles and the Lode factor), exact
-    // in dLambda.
-    const S hp = S(1e-7) * (std::fabs(p) + mp.p_min);
-    const auto vp = res(p + hp, dL);
-    const S a11 = (vp.R1 - v.R1) / hp, a12 = v.dR1_dL;
-    const S a21 = (vp.R2 - v.R2) / hp, a22 = v.dR2_dL;
+    const S a11 = v.dR1_dp, a12 = v.dR1_dL;
+    const S a21 = v.dR2_dp, a22 = v.dR2_dL;
     const S det = a11 * a22 - a12 * a21;
     if (!(std::fabs(det) > S(0))) break;
     const S dp = (-v.R1 * a22 + v.R2 * a12) / det;
