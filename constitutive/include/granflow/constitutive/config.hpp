@@ -12,6 +12,7 @@
 #define GF_HDI GF_HD inline
 
 #include <cstdint>
+#include <limits>
 
 namespace granflow {
 
@@ -51,6 +52,39 @@ struct UpdateInfo {
   std::uint32_t flags = 0;
   int substeps = 0;
   GF_HDI bool ok() const { return (flags & info::kErrorMask) == 0; }
+};
+
+// Tolerances of the stress integrators that depend on the floating-point type S (the library
+// is templated on S; the MPM instantiates it for float in its "fp32" precision). Each is the
+// FP64 value the library was tuned with; for a coarser type (float) it is raised to what that
+// type can resolve: residual and yield tolerances to a multiple of its epsilon. For double
+// every value below is exactly the FP64 literal (static_asserts at the end of frictional.hpp),
+// so double results do not depend on this table.
+namespace detail {
+// The FP64 value for double (and finer types), the coarse one for float.
+template <class S>
+constexpr S tolerance_for(double fp64, double coarse) {
+  return std::numeric_limits<S>::epsilon() > 1e-12 ? S(coarse) : S(fp64);
+}
+}  // namespace detail
+
+template <class S>
+struct Tolerances {
+  static constexpr S eps = std::numeric_limits<S>::epsilon();
+  // Coarser than double: tolerances come from epsilon instead of the FP64 literals.
+  static constexpr bool kCoarse = std::numeric_limits<S>::epsilon() > 1e-12;
+
+  // q / p below which a stress counts as isotropic (its deviatoric direction is round-off).
+  static constexpr S kIsotropic = detail::tolerance_for<S>(1e-10, 64 * eps);
+  // Return map: converged relative volumetric residual |R1|, and |R1| accepted when Newton
+  // stagnates (no step lowers the residual norm: round-off level).
+  static constexpr S kVolResidual = detail::tolerance_for<S>(1e-12, 32 * eps);
+  static constexpr S kVolStall = detail::tolerance_for<S>(1e-9, 1024 * eps);
+  // Substepping: smallest pseudo-time substep that error control may still reject.
+  static constexpr S kMinSubstep = detail::tolerance_for<S>(1e-9, 64 * eps);
+  // Defaults of FrictionalParams::ftol (yield surface) and ::stol (relative local error).
+  static constexpr S kFtol = detail::tolerance_for<S>(1e-9, 64 * eps);
+  static constexpr S kStol = detail::tolerance_for<S>(1e-6, 64 * eps);
 };
 
 }  // namespace granflow

@@ -25,8 +25,10 @@ struct FrictionalParams {
 
   // Numerics (MODEL.md 3.2, 3.6). p_min: moduli floor and start of the low-pressure regime.
   S p_min = S(1.013);      // ~1e-5 p_at
-  S stol = S(1e-6);        // relative local error tolerance of the substepping scheme
-  S ftol = S(1e-9);        // yield-surface tolerance on f = q/p - g M_p h (dimensionless)
+  // stol and ftol default to 1e-6 and 1e-9 for double; coarser types get what their epsilon
+  // resolves (Tolerances<S> in config.hpp: 64 eps = 7.6e-6 for float).
+  S stol = Tolerances<S>::kStol;  // relative local error tolerance of the substepping scheme
+  S ftol = Tolerances<S>::kFtol;  // yield-surface tolerance on f = q/p - g M_p h (dimensionless)
   int max_substeps = 50;   // substep budget per update call (see StressIntegrator)
 };
 
@@ -47,6 +49,38 @@ struct PhaseTransitionParams {
   CollisionalParams<S> c;
 };
 
+// Parameters in another floating-point type (the MPM's "fp32" precision runs the library in
+// float with the double parameters of the scene). A coarser target type keeps stol and ftol at
+// least at the tolerances it can resolve (Tolerances<T>); double to double is the identity.
+template <class T, class S>
+GF_HDI FrictionalParams<T> params_cast(const FrictionalParams<S>& p) {
+  FrictionalParams<T> o;
+  o.K0 = T(p.K0); o.nu = T(p.nu); o.n = T(p.n); o.phi_c = T(p.phi_c); o.e_ref = T(p.e_ref);
+  o.lambda_c = T(p.lambda_c); o.xi = T(p.xi); o.A_d = T(p.A_d); o.k_p = T(p.k_p); o.n_p = T(p.n_p);
+  o.n_d = T(p.n_d); o.p_at = T(p.p_at); o.p_min = T(p.p_min);
+  o.stol = T(p.stol);
+  o.ftol = T(p.ftol);
+  if (Tolerances<T>::kCoarse) {
+    if (o.stol < Tolerances<T>::kStol) o.stol = Tolerances<T>::kStol;
+    if (o.ftol < Tolerances<T>::kFtol) o.ftol = Tolerances<T>::kFtol;
+  }
+  o.max_substeps = p.max_substeps;
+  return o;
+}
+
+template <class T, class S>
+GF_HDI CollisionalParams<T> params_cast(const CollisionalParams<S>& p) {
+  CollisionalParams<T> o;
+  o.rho_p = T(p.rho_p); o.d = T(p.d); o.V_sd = T(p.V_sd); o.V_m = T(p.V_m); o.eps_n = T(p.eps_n);
+  o.mu_p = T(p.mu_p); o.vs_gap = T(p.vs_gap);
+  return o;
+}
+
+template <class T, class S>
+GF_HDI PhaseTransitionParams<T> params_cast(const PhaseTransitionParams<S>& p) {
+  return {params_cast<T>(p.f), params_cast<T>(p.c)};
+}
+
 // Critical-state stress ratio M of a friction angle: 6 sin(phi) / (3 - sin(phi)).
 template <class S>
 GF_HDI S stress_ratio_of_angle(S sin_phi) {
@@ -61,5 +95,18 @@ GF_HDI S effective_restitution(const CollisionalParams<S>& c) {
 
 // Upper bound of void ratio in Eq. (13): the factor (2.97 - e) must stay positive.
 inline constexpr double kVoidRatioMax = 2.97;
+
+// Void ratio after a volumetric strain ev (tension +): (1 + e) = (1 + e0) exp(ev), exact (MODEL.md
+// 3.7). In double as (1 + e0) exp(ev) - 1. In float the increments of an MPM step (|ev| ~ 1e-7 to
+// 1e-4) are below or near float's resolution of exp(ev) around 1, which rounds them by up to 15 %,
+// the same way every step; e0 + (1 + e0) expm1(ev) resolves them.
+template <class S>
+GF_HDI S void_ratio_after(S e0, S ev) {
+  if constexpr (Tolerances<S>::kCoarse) {
+    return e0 + (S(1) + e0) * std::expm1(ev);
+  } else {
+    return (S(1) + e0) * std::exp(ev) - S(1);
+  }
+}
 
 }  // namespace granflow
