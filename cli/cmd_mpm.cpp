@@ -18,6 +18,7 @@
 
 #include <granflow/mpm/checkpoint.hpp>
 #include <granflow/mpm/driver.hpp>
+#include <granflow/mpm/memory.hpp>
 
 #include "commands.hpp"
 #include "io/input_error.hpp"
@@ -30,8 +31,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-mpm::SceneSetup setup_from_file(const std::string& file) {
-  const mpm::Scene sc = io::load_scene(file);
+// precision: "" keeps the scene's solver.precision; fp64 | mixed | fp32 overrides it.
+mpm::SceneSetup setup_from_file(const std::string& file, const std::string& precision = "") {
+  mpm::Scene sc = io::load_scene(file);
+  if (!precision.empty()) mpm::parse_precision(precision, sc.precision);
   try {
     return mpm::make_setup(sc);
   } catch (const mpm::SceneError& e) {
@@ -121,7 +124,7 @@ std::string locate_plot_script() {
 }
 
 struct MpmOptions {
-  std::string scene, out, backend = "cpu", png_fields = "p,T,eps_pd";
+  std::string scene, out, backend = "cpu", png_fields = "p,T,eps_pd", precision;
   bool force = false, no_png = false, quiet = false, restart = false;
   double stop_after = -1;
   double checkpoint_every = -1;  // > 0 overrides output.checkpoint_dt
@@ -155,10 +158,13 @@ mpm::Checkpoint load_restart(const MpmOptions& o, const std::string& out, const 
 }
 
 void run_mpm(const MpmOptions& o) {
-  const mpm::SceneSetup su = setup_from_file(o.scene);
+  const mpm::SceneSetup su = setup_from_file(o.scene, o.precision);
   std::string out = o.out;
   if (out.empty()) out = "mpm_out/" + fs::path(o.scene).stem().string();
-  const std::uint64_t hash = scene_hash(su.scene);
+  std::uint64_t hash = scene_hash(su.scene);
+  // a checkpoint resumes in the precision it was written in (fp64 hashes as before)
+  if (su.scene.precision != mpm::Precision::FP64)
+    hash = mpm::fnv1a(std::string("precision ") + mpm::precision_name(su.scene.precision), hash);
   std::optional<mpm::Checkpoint> resume;
   if (o.restart) {
     resume = load_restart(o, out, su, hash);
@@ -180,6 +186,7 @@ void run_mpm(const MpmOptions& o) {
                sc.material.model == mpm::ModelKind::PhaseTransition ? "phase-transition model" : "frictional-only model",
                sc.adaptive ? "adaptive dt" : ("dt = " + std::to_string(sc.dt) + " s").c_str(),
                sc.shape == mpm::ShapeKind::Linear ? "linear" : "quadratic B-spline", runner->device().c_str());
+  std::fprintf(stderr, "  precision %s; %s\n", mpm::precision_name(sc.precision), mpm::memory_line(su).c_str());
   if (resume)
     std::fprintf(stderr, "  restarting at t = %.6g s (step %ld) from %s/%s\n", resume->loop.t, resume->loop.step,
                  out.c_str(), mpm::kCheckpointFile);
@@ -201,6 +208,7 @@ void run_mpm(const MpmOptions& o) {
     const int sig = s.interrupted;
     std::string again = "granflow mpm " + o.scene + " --out " + out + " --restart";
     if (o.backend != "cpu") again += " --backend " + o.backend;
+    if (!o.precision.empty()) again += " --precision " + o.precision;
     if (o.checkpoint_every > 0) {
       std::ostringstream os;
       os << " --checkpoint-every " << o.checkpoint_every;
@@ -215,6 +223,7 @@ void run_mpm(const MpmOptions& o) {
   }
   std::printf("scene: %s\nparticles: %ld\nsteps: %ld\nsimulated: %.6g s\nwall: %.3f s\n", sc.name.c_str(),
               runner->particles(), s.steps, s.t_end, s.wall_s);
+  std::printf("precision: %s\n", mpm::precision_name(sc.precision));
   std::printf("particle-updates/s: %.4g\n", s.wall_s > 0 ? runner->particles() * double(s.steps) / s.wall_s : 0.0);
   if (s.consolidation.done)
     std::printf("after stage 1: base sigma_v %.1f Pa vs rho g h %.1f Pa; max |sigma_v/(rho g z) - 1| = %.3f "
@@ -247,14 +256,19 @@ void run_mpm(const MpmOptions& o) {
 }
 
 struct BenchOptions {
-  std::string scene, backend = "cpu", loop = "span";
+  std::string scene, backend = "cpu", loop = "span", precision;
   long steps = 200, warmup = 20, split = 100;
   CudaFlags cuda;
 };
 
 void bench_mpm(const BenchOptions& o) {
-  const mpm::SceneSetup su = setup_from_file(o.scene);
+  using Clock = std::chrono::steady_clock;
+  const auto t_setup = Clock::now();
+  const mpm::SceneSetup su = setup_from_file(o.scene, o.precision);
+  const double setup_s = std::chrono::duration<double>(Clock::now() - t_setup).count();
+  const auto t_runner = Clock::now();
   auto r = make_runner(su, o.backend, o.cuda);
+  const double runner_s = std::chrono::duration<double>(Clock::now() - t_runner).count();
   mpm::BenchOptions bo;
   bo.steps = o.steps;
   bo.warmup = o.warmup;
@@ -262,6 +276,8 @@ void bench_mpm(const BenchOptions& o) {
   bo.step_by_step = o.loop == "step";
   const mpm::BenchResult b = mpm::bench(su, *r, bo);
   std::fputs(mpm::bench_report(su, *r, bo, b).c_str(), stdout);
+  std::printf("precision: %s\n%s\nset-up: %.2f s (scene and particles), %.2f s (runner, upload)\n",
+              mpm::precision_name(su.scene.precision), mpm::memory_line(su).c_str(), setup_s, runner_s);
 }
 
 }  // namespace
@@ -287,6 +303,8 @@ void register_mpm(CLI::App& app) {
           "SECONDS > 0"));
   cmd->add_flag("--restart", o->restart, "continue the run in --out from its checkpoint");
   cmd->add_option("--png-fields", o->png_fields, "fields of the PNG snapshots (comma separated)");
+  cmd->add_option("--precision", o->precision, "fp64, mixed or fp32: overrides the scene's solver.precision")
+      ->check(CLI::IsMember({"fp64", "mixed", "fp32"}));
   cmd->add_flag("--no-png", o->no_png, "do not call scripts/plot_mpm.py");
   cmd->add_flag("--quiet", o->quiet, "no progress line");
   cmd->add_option("--span", o->span, "most steps queued without a host round-trip (1: one per step)")
@@ -306,6 +324,8 @@ void register_bench_mpm(CLI::App& bench) {
       ->check(CLI::IsMember({"span", "step"}));
   cmd->add_option("--split", o->split, "steps of the separate timed span for the per-phase split (0: none)")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--precision", o->precision, "fp64, mixed or fp32: overrides the scene's solver.precision")
+      ->check(CLI::IsMember({"fp64", "mixed", "fp32"}));
   o->cuda.add(cmd);
   cmd->callback([o] { bench_mpm(*o); });
 }

@@ -70,6 +70,7 @@ mpm::Scene load_scene(const std::string& path) {
   if (auto s = root.optional_table("solver")) {
     sc.flip = s->number_or("flip", 0.99, Bounds::closed(0, 1));
     sc.volumetric_averaging = s->boolean_or("volumetric_averaging", false);
+    mpm::parse_precision(s->choice("precision", {"fp64", "mixed", "fp32"}, "fp64"), sc.precision);
     if (s->has("gravity")) sc.gravity = vec(*s, "gravity", D);
     s->finish();
   }

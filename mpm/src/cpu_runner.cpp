@@ -227,14 +227,14 @@ class CpuRunner final : public Runner {
 };
 
 struct MakeCpu {
-  template <int D, class Model, class Shape, bool kB>
+  template <int D, class S, class Model, class Shape, bool kB>
   std::unique_ptr<Runner> run(const SceneSetup& su) {
-    return std::make_unique<CpuRunner<D, double, Model, Shape, kB>>(su);
+    return std::make_unique<CpuRunner<D, S, Model, Shape, kB>>(su);
   }
 };
 
 }  // namespace
 
-std::unique_ptr<Runner> make_cpu_runner(const SceneSetup& su) { return detail::dispatch<double>(su, MakeCpu{}); }
+std::unique_ptr<Runner> make_cpu_runner(const SceneSetup& su) { return detail::dispatch(su, MakeCpu{}); }
 
 }  // namespace granflow::mpm

@@ -1,5 +1,6 @@
 // CUDA backend: dispatch to the instantiations of cuda_runner_impl.cuh, compiled in four
-// files (cuda_kernels_*.cu, one per model and shape) so that they build in parallel.
+// files (cuda_kernels_*.cu, one per model and shape) so that they build in parallel; the float
+// storage of the mixed and fp32 precisions in four more (cuda_kernels_{mixed,fp32}_*.cu).
 #include <cuda_runtime.h>
 
 #include <memory>
@@ -9,14 +10,14 @@
 
 namespace granflow::mpm {
 
-template <int D, class Model, class Shape, bool kB>
+template <int D, class S, class Model, class Shape, bool kB>
 std::unique_ptr<Runner> make_cuda_runner_t(const SceneSetup& su, const CudaOptions& opt);
 
 namespace {
 
 struct MakeCuda {
   CudaOptions opt;
-  template <int D, class Model, class Shape, bool kB>
+  template <int D, class S, class Model, class Shape, bool kB>
   std::unique_ptr<Runner> run(const SceneSetup& su) {
 #ifndef GRANFLOW_MPM_CUDA_3D
     if constexpr (D == 3) {
@@ -24,7 +25,7 @@ struct MakeCuda {
     } else
 #endif
     {
-      return make_cuda_runner_t<D, Model, Shape, kB>(su, opt);
+      return make_cuda_runner_t<D, S, Model, Shape, kB>(su, opt);
     }
   }
 };
@@ -38,7 +39,7 @@ bool cuda_backend_available() {
 
 std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& su, const CudaOptions& options) {
   if (!cuda_backend_available()) throw std::runtime_error("no CUDA device found; use --backend cpu");
-  return detail::dispatch<double>(su, MakeCuda{options});
+  return detail::dispatch(su, MakeCuda{options});
 }
 
 }  // namespace granflow::mpm

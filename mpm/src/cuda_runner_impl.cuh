@@ -874,23 +874,31 @@ class CudaRunner final : public Runner {
 
 }  // namespace
 
-template <int D, class Model, class Shape, bool kB>
+template <int D, class S, class Model, class Shape, bool kB>
 std::unique_ptr<Runner> make_cuda_runner_t(const SceneSetup& su, const CudaOptions& opt) {
-  return std::make_unique<CudaRunner<D, double, Model, Shape, kB>>(su, opt);
+  return std::make_unique<CudaRunner<D, S, Model, Shape, kB>>(su, opt);
 }
 
 }  // namespace granflow::mpm
 
 // Explicit instantiations of one model and shape (2D; 3D with GRANFLOW_MPM_CUDA_3D).
-#define GF_MPM_CUDA_INSTANTIATE_D(D, MODEL, SHAPE)                                                        \
-  template std::unique_ptr<granflow::mpm::Runner> granflow::mpm::make_cuda_runner_t<D, MODEL, SHAPE, false>( \
-      const granflow::mpm::SceneSetup&, const granflow::mpm::CudaOptions&);                               \
-  template std::unique_ptr<granflow::mpm::Runner> granflow::mpm::make_cuda_runner_t<D, MODEL, SHAPE, true>(  \
+// GF_MPM_CUDA_INSTANTIATE: fp64 (double storage), with and without boundary code.
+// GF_MPM_CUDA_INSTANTIATE_FLOAT: float storage (MODEL<double>: mixed, MODEL<float>: fp32), with
+// boundary code only (runner_common.hpp, dispatch).
+#define GF_MPM_CUDA_INSTANTIATE_ONE(D, S, MODEL, SHAPE, KB)                                                  \
+  template std::unique_ptr<granflow::mpm::Runner> granflow::mpm::make_cuda_runner_t<D, S, MODEL, SHAPE, KB>( \
       const granflow::mpm::SceneSetup&, const granflow::mpm::CudaOptions&);
+#define GF_MPM_CUDA_INSTANTIATE_D(D, MODEL, SHAPE)                 \
+  GF_MPM_CUDA_INSTANTIATE_ONE(D, double, MODEL, SHAPE, false) \
+  GF_MPM_CUDA_INSTANTIATE_ONE(D, double, MODEL, SHAPE, true)
 #ifdef GRANFLOW_MPM_CUDA_3D
 #define GF_MPM_CUDA_INSTANTIATE(MODEL, SHAPE) \
   GF_MPM_CUDA_INSTANTIATE_D(2, MODEL, SHAPE)  \
   GF_MPM_CUDA_INSTANTIATE_D(3, MODEL, SHAPE)
+#define GF_MPM_CUDA_INSTANTIATE_FLOAT(MODEL, SHAPE)                \
+  GF_MPM_CUDA_INSTANTIATE_ONE(2, float, MODEL, SHAPE, true) \
+  GF_MPM_CUDA_INSTANTIATE_ONE(3, float, MODEL, SHAPE, true)
 #else
 #define GF_MPM_CUDA_INSTANTIATE(MODEL, SHAPE) GF_MPM_CUDA_INSTANTIATE_D(2, MODEL, SHAPE)
+#define GF_MPM_CUDA_INSTANTIATE_FLOAT(MODEL, SHAPE) GF_MPM_CUDA_INSTANTIATE_ONE(2, float, MODEL, SHAPE, true)
 #endif

@@ -5,7 +5,7 @@
 //                [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR]
 //                [--stop-after T] [--span N] [--bench N [--warmup M] [--loop span|step] [--split N]]
 //                [CUDA options: --graphs on|off --graph-steps N --sort N --p2g atomic|warp|tile
-//                 --g2p-block N --g2p-regcap on|off]
+//                 --g2p-block N --g2p-regcap on|off] [--precision fp64|mixed|fp32]
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,6 +14,7 @@
 #include <string>
 
 #include <granflow/mpm/driver.hpp>
+#include <granflow/mpm/memory.hpp>
 
 using namespace granflow::mpm;
 
@@ -26,6 +27,7 @@ int usage() {
                "       [--span N] [--bench N [--warmup M] [--loop span|step] [--split N]]\n"
                "       CUDA: [--graphs on|off] [--graph-steps N] [--sort N] [--p2g atomic|warp|tile]\n"
                "             [--g2p-block N] [--g2p-regcap on|off]\n"
+               "       [--precision fp64|mixed|fp32] (default fp64; docs/mpm.md)\n"
                "defaults: quadratic B-spline; column h 0.001 dt 1e-5 time 1.0; flume h 0.005 dt 1e-6 time 3.0;\n"
                "--span: most steps without a host round-trip (1: one per step; default 10000);\n"
                "CUDA defaults: graphs on, graph-steps 32, sort 32, p2g tile, g2p-block 128, g2p-regcap off\n");
@@ -47,6 +49,7 @@ int main(int argc, char** argv) {
   BenchOptions bo;
   bo.warmup = 10;
   CudaOptions copt;
+  Precision precision = Precision::FP64;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 >= argc) return usage();
@@ -63,20 +66,25 @@ int main(int argc, char** argv) {
     else if (a == "--warmup") bo.warmup = std::atol(v);
     else if (a == "--split") bo.split_steps = std::atol(v);
     else if (a == "--span") span = std::atol(v);
+    else if (a == "--precision") {
+      if (!parse_precision(v, precision)) return usage();
+    }
     else if (a == "--loop" && (std::strcmp(v, "span") == 0 || std::strcmp(v, "step") == 0)) bo.step_by_step = std::strcmp(v, "step") == 0;
     else if (a.rfind("--", 0) == 0 && set_cuda_option(copt, a.substr(2), v)) continue;
     else return usage();
   }
   try {
-    const Scene sc = column ? column_scene(h, dt, model, shape, time) : flume_scene(h, dt, model, shape, time);
+    Scene sc = column ? column_scene(h, dt, model, shape, time) : flume_scene(h, dt, model, shape, time);
+    sc.precision = precision;
     const SceneSetup su = make_setup(sc);
     auto r = backend == "cuda" ? make_cuda_runner(su, copt) : make_cpu_runner(su);
-    std::fprintf(stderr, "%s: %ld particles, %ld nodes, %s\n", sc.name.c_str(), r->particles(), r->nodes(),
-                 r->device().c_str());
+    std::fprintf(stderr, "%s: %ld particles, %ld nodes, %s, precision %s\n  %s\n", sc.name.c_str(), r->particles(),
+                 r->nodes(), r->device().c_str(), precision_name(precision), memory_line(su).c_str());
     if (bench > 0) {
       bo.steps = bench;
       const BenchResult b = granflow::mpm::bench(su, *r, bo);
       std::fputs(bench_report(su, *r, bo, b).c_str(), stdout);
+      std::printf("precision: %s\n", precision_name(precision));
       return 0;
     }
     RunOptions opt;
@@ -88,6 +96,7 @@ int main(int argc, char** argv) {
                 "particle-updates/s: %.4g\nfinal run-out: %.4f m\nfinal height: %.4f m\n",
                 sc.name.c_str(), s.device.c_str(), r->particles(), s.steps, s.t_end, s.wall_s,
                 r->particles() * double(s.steps) / s.wall_s, s.final.runout, s.final.height);
+    std::printf("precision: %s\n", precision_name(precision));
     if (s.steps > 0 && s.times.steps > 0)
       std::printf("kernel time per step: P2G %.2f us, grid %.2f us, G2P + constitutive %.2f us; wall per step %.2f us\n",
                   1e6 * s.times.p2g / s.times.steps, 1e6 * s.times.grid / s.times.steps,

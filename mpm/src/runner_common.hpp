@@ -12,12 +12,14 @@
 
 namespace granflow::mpm::detail {
 
+// The scene's (double) parameters in the model's scalar (params_cast: the identity for double).
 template <class Model>
 typename Model::Params model_params(const Material& m) {
+  using MS = typename Model::Scalar;
   if constexpr (Model::kCollisional) {
-    return m.params;
+    return params_cast<MS>(m.params);
   } else {
-    return m.params.f;
+    return params_cast<MS>(m.params.f);
   }
 }
 
@@ -134,11 +136,12 @@ void make_frame(const std::vector<S>& a, long n, const typename Model::Params& m
   fr.T.assign(n, 0.0);
   if constexpr (Model::kCollisional)
     for (long i = 0; i < n; ++i) fr.T[i] = pv.f(Lay::SQT, i) * pv.f(Lay::SQT, i);
-  auto point = [&](long i, Diagnostics<S>& dg, Mat3<S>& sig) {
+  using MS = typename Model::Scalar;
+  auto point = [&](long i, Diagnostics<MS>& dg, Mat3<S>& sig) {
     const auto st = StateIO<Model>::template load<D>(pv, i);
-    Mat3<S> L = Mat3<S>::Zero();
+    Mat3<MS> L = Mat3<MS>::Zero();
     for (int r = 0; r < D; ++r)
-      for (int c = 0; c < D; ++c) L(r, c) = pv.f(Lay::L + r * D + c, i);
+      for (int c = 0; c < D; ++c) L(r, c) = MS(pv.f(Lay::L + r * D + c, i));
     dg = Model::diagnostics(mp, st, sym(L));
     sig = load_sym(pv, Lay::SIG, i);
   };
@@ -146,7 +149,7 @@ void make_frame(const std::vector<S>& a, long n, const typename Model::Params& m
   if (!diagnostics) {
     for (auto* f : {&fr.p, &fr.q, &fr.eps_pd, &fr.eta_c, &fr.K_col, &fr.e, &fr.sxx, &fr.syy, &fr.sxy}) f->clear();
     for (long i : subset) {
-      Diagnostics<S> dg;
+      Diagnostics<MS> dg;
       Mat3<S> sig;
       point(i, dg, sig);
       fr.subset.push_back({mean_pressure(sig), deviatoric_q(sig), dg.eps_pd, dg.T, dg.eta_c, dg.K_col});
@@ -156,7 +159,7 @@ void make_frame(const std::vector<S>& a, long n, const typename Model::Params& m
   for (auto* f : {&fr.p, &fr.q, &fr.eps_pd, &fr.eta_c, &fr.K_col, &fr.e, &fr.sxx, &fr.syy, &fr.sxy})
     f->assign(n, 0.0);
   for (long i = 0; i < n; ++i) {
-    Diagnostics<S> dg;
+    Diagnostics<MS> dg;
     Mat3<S> sig;
     point(i, dg, sig);
     fr.p[i] = mean_pressure(sig);
@@ -173,29 +176,49 @@ void make_frame(const std::vector<S>& a, long n, const typename Model::Params& m
 }
 
 // Dispatch of the compile-time choices a scene selects. F is a template functor
-// F::template run<D, Model, Shape, kBoundary>(setup).
-template <class S, class F>
-auto dispatch(const SceneSetup& su, F&& f) {
-  using PT = PhaseTransitionModel<S>;
-  using FR = FrictionalModel<S>;
+// F::template run<D, S, Model, Shape, kBoundary>(setup): S is the scalar of particle and grid
+// storage and of P2G, grid update and G2P, Model::Scalar that of the constitutive update
+// (solver.precision): fp64 S = double, Model<double>; mixed S = float, Model<double>;
+// fp32 S = float, Model<float>. fp32 and mixed are compiled for scenes with boundary code (every
+// scene but free-fall tests has walls): 8 instantiations each instead of 16, per backend.
+template <class S, class MS, bool kUnbounded, class F>
+auto dispatch_scalar(const SceneSetup& su, F& f) {
+  using PT = PhaseTransitionModel<MS>;
+  using FR = FrictionalModel<MS>;
   const Scene& sc = su.scene;
   const bool pt = sc.material.model == ModelKind::PhaseTransition;
   const bool quad = sc.shape == ShapeKind::QuadraticBSpline;
-  const bool bnd = su.has_boundary;
-#define GF_MPM_CASE(DIM)                                                                   \
-  if (pt && quad && bnd) return f.template run<DIM, PT, QuadraticShape, true>(su);       \
-  if (pt && quad) return f.template run<DIM, PT, QuadraticShape, false>(su);             \
-  if (pt && bnd) return f.template run<DIM, PT, LinearShape, true>(su);                  \
-  if (pt) return f.template run<DIM, PT, LinearShape, false>(su);                        \
-  if (quad && bnd) return f.template run<DIM, FR, QuadraticShape, true>(su);             \
-  if (quad) return f.template run<DIM, FR, QuadraticShape, false>(su);                   \
-  if (bnd) return f.template run<DIM, FR, LinearShape, true>(su);                        \
-  return f.template run<DIM, FR, LinearShape, false>(su);
-  if (sc.dim == 3) {
-    GF_MPM_CASE(3)
+#define GF_MPM_CASE(DIM, B)                                                      \
+  if (pt && quad) return f.template run<DIM, S, PT, QuadraticShape, B>(su);     \
+  if (pt) return f.template run<DIM, S, PT, LinearShape, B>(su);                \
+  if (quad) return f.template run<DIM, S, FR, QuadraticShape, B>(su);           \
+  return f.template run<DIM, S, FR, LinearShape, B>(su);
+  if (!su.has_boundary) {
+    if constexpr (kUnbounded) {
+      if (sc.dim == 3) {
+        GF_MPM_CASE(3, false)
+      }
+      GF_MPM_CASE(2, false)
+    } else {
+      throw SceneError("solver.precision", std::string("\"") + precision_name(sc.precision) +
+                       "\" is compiled only for scenes with a wall, a base or a gate (this one has none); "
+                       "use \"fp64\"");
+    }
   }
-  GF_MPM_CASE(2)
+  if (sc.dim == 3) {
+    GF_MPM_CASE(3, true)
+  }
+  GF_MPM_CASE(2, true)
 #undef GF_MPM_CASE
+}
+
+template <class F>
+auto dispatch(const SceneSetup& su, F&& f) {
+  switch (su.scene.precision) {
+    case Precision::Mixed: return dispatch_scalar<float, double, false>(su, f);
+    case Precision::FP32: return dispatch_scalar<float, float, false>(su, f);
+    default: return dispatch_scalar<double, double, true>(su, f);
+  }
 }
 
 }  // namespace granflow::mpm::detail

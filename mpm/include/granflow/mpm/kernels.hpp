@@ -174,26 +174,28 @@ GF_HDI Mat3<S> embed_gradient(const S (&L)[D][D]) {
 // Stable time step of one particle: CFL with the elastic P-wave speed of the skeleton
 // (K_f, G_f from the library) plus the particle speed, and the viscous (diffusive) limit
 // dt <= rho h^2 / (2 n_dim (4/3 eta_c + kappa_c)) of MODEL.md 9.
+// Evaluated in the model's scalar MS (double in the "mixed" precision, where S is float).
 template <int D, class S, class Model>
 GF_HDI S particle_dt_limit(const typename Model::State& st, const StepParams<D, S, Model>& sp, S speed) {
-  const FrictionalParams<S>& fp = frictional_params(sp.mp);
-  const S rho = sp.rho_p / (S(1) + st.e);
-  Mat3<S> sigf;
+  using MS = typename Model::Scalar;
+  const FrictionalParams<MS>& fp = frictional_params(sp.mp);
+  const MS rho = MS(sp.rho_p) / (MS(1) + st.e);
+  Mat3<MS> sigf;
   if constexpr (Model::kCollisional) sigf = st.sigma_f; else sigf = st.sigma;
-  const ElasticModuli<S> c = elastic_moduli(fp, mean_pressure(sigf), st.e);
-  const S wave = std::sqrt((c.K + S(4) / S(3) * c.G) / rho);
-  const S h = sp.grid.h;
-  S lim = sp.cfl * h / (wave + speed);
+  const ElasticModuli<MS> c = elastic_moduli(fp, mean_pressure(sigf), st.e);
+  const MS wave = std::sqrt((c.K + MS(4) / MS(3) * c.G) / rho);
+  const MS h = MS(sp.grid.h);
+  MS lim = MS(sp.cfl) * h / (wave + MS(speed));
   if constexpr (Model::kCollisional) {
-    const KineticCoefficients<S> kc = kinetic_coefficients(sp.mp.c, S(1) / (S(1) + st.e));
-    const CollisionalTransport<S> t = collisional_transport(sp.mp.c, kc, st.s);
-    const S visc = S(4) / S(3) * t.eta + t.kappa;
-    if (visc > S(0)) {
-      const S lv = sp.cfl * rho * h * h / (S(2) * S(D) * visc);
+    const KineticCoefficients<MS> kc = kinetic_coefficients(sp.mp.c, MS(1) / (MS(1) + st.e));
+    const CollisionalTransport<MS> t = collisional_transport(sp.mp.c, kc, st.s);
+    const MS visc = MS(4) / MS(3) * t.eta + t.kappa;
+    if (visc > MS(0)) {
+      const MS lv = MS(sp.cfl) * rho * h * h / (MS(2) * MS(D) * visc);
       lim = lv < lim ? lv : lim;
     }
   }
-  return lim;
+  return S(lim);
 }
 
 // 3a. Velocity, position and velocity gradient of one particle (L stored in the particle).
@@ -259,6 +261,8 @@ GF_HDI void volumetric_rate(const ParticleView<S>& pv, long p, const StepParams<
 // 3b. Constitutive update of one particle from the stored L. With tr_bar finite, the
 // volumetric part of L is replaced by tr_bar (the volume-weighted mean over the particle's
 // bin: the "cell-averaged volumetric strain rate" that damps pressure checkerboarding).
+// The update runs in the model's scalar MS = Model::Scalar: S (fp64, fp32) or double with
+// float storage ("mixed": state, L and dt converted to double and the result back).
 template <int D, class S, class Model>
 GF_HDI std::uint32_t constitutive_particle(const ParticleView<S>& pv, long p, const StepParams<D, S, Model>& sp,
                                            S tr_bar, S* dt_limit, std::uint32_t* upd_info) {
@@ -272,17 +276,19 @@ GF_HDI std::uint32_t constitutive_particle(const ParticleView<S>& pv, long p, co
     for (int d = 0; d < D; ++d) L[d][d] += (tr_bar - tr) / S(D);
   }
   using IO = StateIO<Model>;
+  using MS = typename Model::Scalar;
   typename Model::State st = IO::template load<D>(pv, p);
-  Mat3<S> stress;
-  const Mat3<S> L3 = embed_gradient<D, S>(L);
-  const S e_trial = (S(1) + st.e) * std::exp(trace(L3) * sp.dt) - S(1);
-  const UpdateInfo inf = Model::update(sp.mp, st, L3, sp.dt, stress);
+  Mat3<MS> stress;
+  const Mat3<MS> L3 = embed_gradient<D, S>(L).template cast<MS>();
+  const MS dt = MS(sp.dt);
+  const MS e_trial = (MS(1) + st.e) * std::exp(trace(L3) * dt) - MS(1);
+  const UpdateInfo inf = Model::update(sp.mp, st, L3, dt, stress);
   const std::uint32_t nsub = inf.substeps < 65535 ? static_cast<std::uint32_t>(inf.substeps) : 65535u;
   *upd_info = (inf.flags & 0xffu) | (nsub << 16);
   if (inf.ok()) {
     IO::template store<D>(pv, p, st);
     store_sym(pv, Lay::SIG, p, stress);
-  } else if ((inf.flags & info::kInadmissible) && e_trial >= S(kSeparatedVoidRatio)) {
+  } else if ((inf.flags & info::kInadmissible) && e_trial >= MS(kSeparatedVoidRatio)) {
     // A point torn off the bulk (free surface, rear of a slide) dilates past the range of
     // Eq. (13): the grains have separated. It carries no stress and keeps e at the cap until
     // it is compressed again (MPM policy, not part of the constitutive model).

@@ -84,17 +84,19 @@ GF_HDI Mat3<S> load_sym(const ParticleView<S>& pv, int field, long i) {
   m(0, 1) = m(1, 0) = pv.f(field + 5, i);
   return m;
 }
-template <class S>
-GF_HDI void store_sym(const ParticleView<S>& pv, int field, long i, const Mat3<S>& m) {
-  pv.f(field, i) = m(0, 0);
-  pv.f(field + 1, i) = m(1, 1);
-  pv.f(field + 2, i) = m(2, 2);
-  pv.f(field + 3, i) = S(0.5) * (m(1, 2) + m(2, 1));
-  pv.f(field + 4, i) = S(0.5) * (m(0, 2) + m(2, 0));
-  pv.f(field + 5, i) = S(0.5) * (m(0, 1) + m(1, 0));
+// m may be in another scalar T (the model's, "mixed" precision): rounded to S when stored.
+template <class S, class T>
+GF_HDI void store_sym(const ParticleView<S>& pv, int field, long i, const Mat3<T>& m) {
+  pv.f(field, i) = S(m(0, 0));
+  pv.f(field + 1, i) = S(m(1, 1));
+  pv.f(field + 2, i) = S(m(2, 2));
+  pv.f(field + 3, i) = S(T(0.5) * (m(1, 2) + m(2, 1)));
+  pv.f(field + 4, i) = S(T(0.5) * (m(0, 2) + m(2, 0)));
+  pv.f(field + 5, i) = S(T(0.5) * (m(0, 1) + m(1, 0)));
 }
 
-// Model state <-> particle arrays, one specialisation per model the MPM supports.
+// Model state <-> particle arrays, one specialisation per model the MPM supports. The arrays'
+// scalar T may differ from the model's S ("mixed" precision: float storage, double model).
 template <class Model>
 struct StateIO;
 
@@ -103,19 +105,19 @@ struct StateIO<FrictionalModel<S, LS, I>> {
   using State = typename FrictionalModel<S, LS, I>::State;
   template <int D>
   using Lay = ParticleLayout<D, false>;
-  template <int D>
-  static GF_HDI State load(const ParticleView<S>& pv, long i) {
+  template <int D, class T>
+  static GF_HDI State load(const ParticleView<T>& pv, long i) {
     State st;
-    st.sigma = load_sym(pv, Lay<D>::SIGF, i);
-    st.eps_pd = pv.f(Lay<D>::EPS, i);
-    st.e = pv.f(Lay<D>::E, i);
+    st.sigma = load_sym(pv, Lay<D>::SIGF, i).template cast<S>();
+    st.eps_pd = S(pv.f(Lay<D>::EPS, i));
+    st.e = S(pv.f(Lay<D>::E, i));
     return st;
   }
-  template <int D>
-  static GF_HDI void store(const ParticleView<S>& pv, long i, const State& st) {
+  template <int D, class T>
+  static GF_HDI void store(const ParticleView<T>& pv, long i, const State& st) {
     store_sym(pv, Lay<D>::SIGF, i, st.sigma);
-    pv.f(Lay<D>::EPS, i) = st.eps_pd;
-    pv.f(Lay<D>::E, i) = st.e;
+    pv.f(Lay<D>::EPS, i) = T(st.eps_pd);
+    pv.f(Lay<D>::E, i) = T(st.e);
   }
 };
 
@@ -124,21 +126,21 @@ struct StateIO<PhaseTransitionModel<S, LS, R, I>> {
   using State = typename PhaseTransitionModel<S, LS, R, I>::State;
   template <int D>
   using Lay = ParticleLayout<D, true>;
-  template <int D>
-  static GF_HDI State load(const ParticleView<S>& pv, long i) {
+  template <int D, class T>
+  static GF_HDI State load(const ParticleView<T>& pv, long i) {
     State st;
-    st.sigma_f = load_sym(pv, Lay<D>::SIGF, i);
-    st.eps_pd = pv.f(Lay<D>::EPS, i);
-    st.e = pv.f(Lay<D>::E, i);
-    st.s = pv.f(Lay<D>::SQT, i);
+    st.sigma_f = load_sym(pv, Lay<D>::SIGF, i).template cast<S>();
+    st.eps_pd = S(pv.f(Lay<D>::EPS, i));
+    st.e = S(pv.f(Lay<D>::E, i));
+    st.s = S(pv.f(Lay<D>::SQT, i));
     return st;
   }
-  template <int D>
-  static GF_HDI void store(const ParticleView<S>& pv, long i, const State& st) {
+  template <int D, class T>
+  static GF_HDI void store(const ParticleView<T>& pv, long i, const State& st) {
     store_sym(pv, Lay<D>::SIGF, i, st.sigma_f);
-    pv.f(Lay<D>::EPS, i) = st.eps_pd;
-    pv.f(Lay<D>::E, i) = st.e;
-    pv.f(Lay<D>::SQT, i) = st.s;
+    pv.f(Lay<D>::EPS, i) = T(st.eps_pd);
+    pv.f(Lay<D>::E, i) = T(st.e);
+    pv.f(Lay<D>::SQT, i) = T(st.s);
   }
 };
 

@@ -27,6 +27,22 @@ class SceneError : public std::runtime_error {
 
 enum class ModelKind { PhaseTransition, Frictional };
 
+// Scalar of particle/grid storage and of P2G, grid update and G2P, and of the constitutive
+// update (solver.precision): fp64 both double; mixed float storage and transfers with the
+// constitutive update in double; fp32 both float (the library's float tolerances, config.hpp).
+enum class Precision { FP64, Mixed, FP32 };
+inline const char* precision_name(Precision p) {
+  return p == Precision::FP64 ? "fp64" : (p == Precision::Mixed ? "mixed" : "fp32");
+}
+// "fp64" | "mixed" | "fp32"; false for anything else.
+inline bool parse_precision(const std::string& s, Precision& p) {
+  if (s == "fp64") p = Precision::FP64;
+  else if (s == "mixed") p = Precision::Mixed;
+  else if (s == "fp32") p = Precision::FP32;
+  else return false;
+  return true;
+}
+
 // Axis-aligned wall: nodes on and beyond `position` along `axis` are held.
 struct Wall {
   int axis = 0;
@@ -100,6 +116,7 @@ struct Scene {
   ShapeKind shape = ShapeKind::Linear;
   double flip = 0.99;
   bool volumetric_averaging = false;  // cell-averaged tr L in the constitutive update
+  Precision precision = Precision::FP64;
   std::vector<double> gravity;
 
   double dt = 0;         // fixed step, or the first/maximum step when adaptive
