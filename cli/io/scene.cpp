@@ -45,6 +45,7 @@ mpm::Scene load_scene(const std::string& path) {
   sc.h = grid.number("h", Bounds::positive());
   sc.shape = grid.choice("shape", {"linear", "quadratic"}, "linear") == "linear" ? mpm::ShapeKind::Linear
                                                                                   : mpm::ShapeKind::QuadraticBSpline;
+  sc.modified_boundary_splines = grid.choice("boundary_splines", {"modified", "truncated"}, "modified") == "modified";
   grid.finish();
 
   TomlTable part = root.table("particles");

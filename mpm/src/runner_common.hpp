@@ -26,6 +26,7 @@ GridDesc<D, S> grid_desc(const SceneSetup& su) {
   for (int d = 0; d < D; ++d) {
     g.origin[d] = S(su.origin[d]);
     g.nodes[d] = su.nodes[d];
+    g.walls[d] = d < static_cast<int>(su.walls.size()) ? su.walls[d] : AxisWalls{};
   }
   g.h = S(su.scene.h);
   g.inv_h = S(1) / g.h;

@@ -186,6 +186,22 @@ SceneSetup make_setup(const Scene& sc) {
       if (w.axis == o.axis && !w.at_max && o.at_max && !(w.position < o.position))
         fail(o.key, "this wall and " + w.key + " leave no room between them");
   su.has_boundary = !sc.walls.empty() || sc.base.has_value();
+  // Wall node rows for the boundary-modified quadratic B-splines: the last held node row of
+  // each axis-aligned wall (the flume's inclined base and the gates keep truncated splines).
+  su.walls.assign(D, AxisWalls{});
+  if (sc.shape == ShapeKind::QuadraticBSpline && sc.modified_boundary_splines) {
+    for (const Wall& w : sc.walls) {
+      const double c = (w.position - su.origin[w.axis]) / sc.h;
+      AxisWalls& a = su.walls[w.axis];
+      if (w.at_max) {
+        a.hi = static_cast<int>(std::ceil(c - 1e-9));
+        a.has_hi = true;
+      } else {
+        a.lo = static_cast<int>(std::floor(c + 1e-9));
+        a.has_lo = true;
+      }
+    }
+  }
   for (const Stage& st : sc.stages) su.has_boundary = su.has_boundary || st.gate.has_value();
   const double tol = 1e-9 * sc.h;
   for (size_t si = 0; si < sc.stages.size(); ++si) {

@@ -72,6 +72,61 @@ Scene block_scene(ModelKind model, bool walls) {
 TEST(MpmKernels, PartitionOfUnityLinear) { check_partition_of_unity<LinearShape>(); }
 TEST(MpmKernels, PartitionOfUnityQuadratic) { check_partition_of_unity<QuadraticShape>(); }
 
+// Boundary-modified quadratic B-splines (shape.hpp weight_1d): near a wall node row (lower
+// wall at node 3, upper at node 12 of a 16-node axis) the functions of the nodes inside keep
+// the partition of unity and reproduce linear fields (sum N_I x_I = x_p, sum grad N_I = 0,
+// sum grad N_I x_I = 1), are non-negative inside, vanish beyond the wall, and at the wall the
+// wall node carries the whole weight. The truncated splines give 1/8 to the first free node.
+TEST(MpmKernels, BoundaryModifiedQuadraticSplinesAreInterpolatoryAtWalls) {
+  AxisWalls a;
+  a.lo = 3;
+  a.hi = 12;
+  a.has_lo = a.has_hi = true;
+  for (double xi = 2.0; xi <= 13.0; xi += 1.0 / 64) {
+    const int b = stencil_base_1d<QuadraticShape>(xi, a);
+    ASSERT_GE(b, a.lo);
+    ASSERT_LE(b + 2, a.hi);
+    double sw = 0, swx = 0, sg = 0, sgx = 0, wmin = 1;
+    for (int k = 0; k < 3; ++k) {
+      double w, g;
+      weight_1d<QuadraticShape>(xi, b + k, a, w, g);
+      sw += w;
+      swx += w * (b + k);
+      sg += g;
+      sgx += g * (b + k);
+      wmin = std::min(wmin, w);
+    }
+    // outside the stencil every modified function vanishes
+    for (int i = 0; i < 16; ++i) {
+      if (i >= b && i < b + 3) continue;
+      double w, g;
+      weight_1d<QuadraticShape>(xi, i, a, w, g);
+      EXPECT_EQ(w, 0.0) << xi << " " << i;
+      EXPECT_EQ(g, 0.0) << xi << " " << i;
+    }
+    if (xi < a.lo - 1.5 || xi > a.hi + 1.5) continue;  // beyond the ghost layer: no guarantee
+    EXPECT_NEAR(sw, 1.0, 1e-12) << xi;
+    EXPECT_NEAR(swx, xi, 1e-12) << xi;
+    EXPECT_NEAR(sg, 0.0, 1e-12) << xi;
+    EXPECT_NEAR(sgx, 1.0, 1e-12) << xi;
+    if (xi >= a.lo && xi <= a.hi) EXPECT_GE(wmin, 0.0) << xi;
+  }
+  double w, g;
+  weight_1d<QuadraticShape>(3.0, 3, a, w, g);
+  EXPECT_DOUBLE_EQ(w, 1.0);
+  weight_1d<QuadraticShape>(3.0, 4, a, w, g);
+  EXPECT_DOUBLE_EQ(w, 0.0);
+  weight_1d<QuadraticShape>(12.0, 12, a, w, g);
+  EXPECT_DOUBLE_EQ(w, 1.0);
+  weight_1d<QuadraticShape>(3.0, 4, AxisWalls{}, w, g);
+  EXPECT_DOUBLE_EQ(w, 0.125);
+  // linear hats are interpolatory already and stay unchanged
+  weight_1d<LinearShape>(3.25, 2, a, w, g);
+  EXPECT_DOUBLE_EQ(w, 0.0);
+  weight_1d<LinearShape>(3.25, 3, a, w, g);
+  EXPECT_DOUBLE_EQ(w, 0.75);
+}
+
 TEST(MpmKernels, P2GConservesMassAndMomentumAndG2PReproducesUniformVelocity) {
   for (ShapeKind shape : {ShapeKind::Linear, ShapeKind::QuadraticBSpline}) {
     Scene sc = block_scene(ModelKind::Frictional, false);

@@ -58,6 +58,7 @@ struct P2GParticle {
   S m;
   S mv[D];        // momentum
   S Vsig[D][D];   // volume times stress (the in-plane block in 2D)
+  AxisWalls walls[D];  // walls of the grid (boundary-modified quadratic B-splines)
 };
 
 template <int D, class S, class Model>
@@ -66,6 +67,7 @@ GF_HDI P2GParticle<D, S> p2g_load(const ParticleView<S>& pv, long p, const StepP
   P2GParticle<D, S> q;
   q.m = pv.f(Lay::M, p);
   for (int d = 0; d < D; ++d) {
+    q.walls[d] = sp.grid.walls[d];
     q.xi[d] = (pv.f(Lay::X + d, p) - sp.grid.origin[d]) * sp.grid.inv_h;
     q.mv[d] = q.m * pv.f(Lay::V + d, p);
   }
@@ -81,9 +83,8 @@ template <int D, class S, class Shape>
 GF_HDI void p2g_contribution(const P2GParticle<D, S>& q, const int* I, S inv_h, S* out) {
   S w[D], g[D];
   for (int d = 0; d < D; ++d) {
-    const S r = q.xi[d] - S(I[d]);
-    w[d] = Shape::w(r);
-    g[d] = Shape::dw(r) * inv_h;
+    weight_1d<Shape>(q.xi[d], I[d], q.walls[d], w[d], g[d]);
+    g[d] *= inv_h;
   }
   S N = S(1);
   for (int d = 0; d < D; ++d) N *= w[d];
@@ -129,7 +130,7 @@ GF_HDI bool stencil_base(const S* xi, const GridDesc<D, S>& g, int* base) {
       inside = false;
       continue;
     }
-    base[d] = Shape::base(xi[d]);
+    base[d] = stencil_base_1d<Shape>(xi[d], g.walls[d]);
     if (base[d] < 0 || base[d] + Shape::K > g.nodes[d]) inside = false;
   }
   return inside;
@@ -213,9 +214,8 @@ GF_HDI std::uint32_t g2p_kinematics(const ParticleView<S>& pv, const GridView<S>
     stencil_node<D, Shape::K>(base, k, I);
     S w[D], g[D];
     for (int d = 0; d < D; ++d) {
-      const S r = xi[d] - S(I[d]);
-      w[d] = Shape::w(r);
-      g[d] = Shape::dw(r) * sp.grid.inv_h;
+      weight_1d<Shape>(xi[d], I[d], sp.grid.walls[d], w[d], g[d]);
+      g[d] *= sp.grid.inv_h;
     }
     S N = S(1);
     for (int d = 0; d < D; ++d) N *= w[d];

@@ -91,6 +91,9 @@ struct Scene {
   double h = 0;                      // grid spacing
   int ppc_axis = 2;                  // particles per cell along each axis (4 per cell in 2D)
   ShapeKind shape = ShapeKind::Linear;
+  // Quadratic B-splines at axis-aligned walls: boundary-modified (interpolatory at the wall,
+  // shape.hpp weight_1d) or merely truncated (the held nodes beyond the wall keep their share).
+  bool modified_boundary_splines = true;
   double flip = 0.99;
   bool volumetric_averaging = false;  // cell-averaged tr L in the constitutive update
   std::vector<double> gravity;
