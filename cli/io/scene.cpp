@@ -64,7 +64,9 @@ mpm::Scene load_scene(const std::string& path) {
   time.finish();
 
   if (auto s = root.optional_table("solver")) {
-    sc.flip = s->number_or("flip", 0.99, Bounds::closed(0, 1));
+    const bool tpic = s->choice("transfer", {"flip", "tpic"}, "flip") == "tpic";
+    sc.transfer = tpic ? mpm::Scene::Transfer::TaylorPic : mpm::Scene::Transfer::FlipPic;
+    sc.flip = s->number_or("flip", tpic ? 0.0 : 0.99, Bounds::closed(0, 1));
     sc.volumetric_averaging = s->boolean_or("volumetric_averaging", false);
     if (s->has("gravity")) sc.gravity = vec(*s, "gravity", D);
     s->finish();

@@ -3,7 +3,7 @@
 //
 //   granflow-mpm column|flume [--h H] [--dt DT] [--time T] [--model pt|frictional]
 //                [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR]
-//                [--stop-after T] [--bench N [--warmup M]]
+//                [--transfer flip|tpic] [--flip F] [--stop-after T] [--bench N [--warmup M]]
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -21,7 +21,7 @@ int usage() {
   std::fprintf(stderr,
                "usage: granflow-mpm column|flume [--h H] [--dt DT] [--time T] [--model pt|frictional]\n"
                "       [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR] [--stop-after T]\n"
-               "       [--bench N [--warmup M]]\n"
+               "       [--transfer flip|tpic] [--flip F] [--bench N [--warmup M]]\n"
                "defaults: quadratic B-spline; column h 0.001 dt 1e-5 time 1.0; flume h 0.005 dt 1e-6 time 3.0\n");
   return 2;
 }
@@ -36,7 +36,8 @@ int main(int argc, char** argv) {
   double h = column ? 0.001 : 0.005, dt = column ? 1e-5 : 1e-6, time = column ? 1.0 : 3.0, stop = -1;
   ModelKind model = ModelKind::PhaseTransition;
   ShapeKind shape = ShapeKind::QuadraticBSpline;  // linear is unstable at 2.5 and 1 mm (docs/mpm.md)
-  std::string backend = "cpu", out;
+  std::string backend = "cpu", out, transfer = "flip";
+  double flip = -1;
   long bench = 0, warmup = 10;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
@@ -49,13 +50,21 @@ int main(int argc, char** argv) {
     else if (a == "--model") model = std::strcmp(v, "frictional") == 0 ? ModelKind::Frictional : ModelKind::PhaseTransition;
     else if (a == "--shape") shape = std::strcmp(v, "quadratic") == 0 ? ShapeKind::QuadraticBSpline : ShapeKind::Linear;
     else if (a == "--backend") backend = v;
+    else if (a == "--transfer") transfer = v;
+    else if (a == "--flip") flip = std::atof(v);
     else if (a == "--out") out = v;
     else if (a == "--bench") bench = std::atol(v);
     else if (a == "--warmup") warmup = std::atol(v);
     else return usage();
   }
   try {
-    const Scene sc = column ? column_scene(h, dt, model, shape, time) : flume_scene(h, dt, model, shape, time);
+    if (transfer != "flip" && transfer != "tpic") return usage();
+    Scene sc = column ? column_scene(h, dt, model, shape, time) : flume_scene(h, dt, model, shape, time);
+    if (transfer == "tpic") {
+      sc.transfer = Scene::Transfer::TaylorPic;
+      sc.flip = 0.0;
+    }
+    if (flip >= 0) sc.flip = flip;
     const SceneSetup su = make_setup(sc);
     auto r = backend == "cuda" ? make_cuda_runner(su) : make_cpu_runner(su);
     std::fprintf(stderr, "%s: %ld particles, %ld nodes, %s\n", sc.name.c_str(), r->particles(), r->nodes(),

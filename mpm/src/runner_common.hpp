@@ -43,6 +43,7 @@ StepParams<D, S, Model> step_params(const SceneSetup& su) {
   for (int d = 0; d < D; ++d) sp.gravity[d] = S(su.scene.gravity[d]);
   sp.dt = S(su.scene.dt);
   sp.flip = S(su.scene.flip);
+  sp.affine = su.scene.transfer == Scene::Transfer::TaylorPic ? 1 : 0;
   sp.damping = S(0);
   double mmin = 1e300;
   for (double m : su.particles.m) mmin = std::min(mmin, m);

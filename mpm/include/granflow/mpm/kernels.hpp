@@ -43,6 +43,7 @@ struct StepParams {
   S gravity[D];
   S dt;
   S flip;             // FLIP fraction of the FLIP/PIC blend (1: FLIP, 0: PIC)
+  int affine;         // P2G carries the affine part m L (x_I - x_p) of the momentum (Taylor PIC)
   S damping;          // Cundall local damping on the grid (consolidation stages), 0: none
   S mass_eps;         // nodes lighter than this are treated as empty
   S cfl;              // safety factor of the time-step limit
@@ -57,6 +58,7 @@ struct P2GParticle {
   S xi[D];        // grid coordinate (x - origin) / h
   S m;
   S mv[D];        // momentum
+  S mLh[D][D];    // m L h: affine momentum per grid unit of (I - xi) (zero without Taylor PIC)
   S Vsig[D][D];   // volume times stress (the in-plane block in 2D)
   AxisWalls walls[D];  // walls of the grid (boundary-modified quadratic B-splines)
 };
@@ -71,6 +73,9 @@ GF_HDI P2GParticle<D, S> p2g_load(const ParticleView<S>& pv, long p, const StepP
     q.xi[d] = (pv.f(Lay::X + d, p) - sp.grid.origin[d]) * sp.grid.inv_h;
     q.mv[d] = q.m * pv.f(Lay::V + d, p);
   }
+  const S mh = sp.affine ? q.m * sp.grid.h : S(0);
+  for (int a = 0; a < D; ++a)
+    for (int b = 0; b < D; ++b) q.mLh[a][b] = mh * pv.f(Lay::L + a * D + b, p);
   const S V = q.m * (S(1) + pv.f(Lay::E, p)) / sp.rho_p;  // V = m / rho, rho = rho_p / (1 + e)
   const Mat3<S> sig = load_sym(pv, Lay::SIG, p);
   for (int a = 0; a < D; ++a)
@@ -96,7 +101,11 @@ GF_HDI void p2g_contribution(const P2GParticle<D, S>& q, const int* I, S inv_h, 
     gradN[d] = v;
   }
   out[0] = N * q.m;
-  for (int d = 0; d < D; ++d) out[1 + d] = N * q.mv[d];
+  for (int d = 0; d < D; ++d) {
+    S mv = q.mv[d];
+    for (int b = 0; b < D; ++b) mv += q.mLh[d][b] * (S(I[b]) - q.xi[b]);
+    out[1 + d] = N * mv;
+  }
   for (int a = 0; a < D; ++a) {
     S f = S(0);
     for (int b = 0; b < D; ++b) f -= q.Vsig[a][b] * gradN[b];

@@ -95,6 +95,13 @@ struct Scene {
   // shape.hpp weight_1d) or merely truncated (the held nodes beyond the wall keep their share).
   bool modified_boundary_splines = true;
   double flip = 0.99;
+  // Velocity transfer. FlipPic: P2G of m v, G2P blend of FLIP and PIC (`flip`). TaylorPic:
+  // P2G of m (v + L (x_I - x_p)) with the particle's velocity gradient L (Taylor PIC,
+  // Nakamura et al. 2023, CMAME 403:115720; APIC with C = L); with flip = 0 the G2P is PIC.
+  // PIC damps every velocity field that is not affine on the scale of a cell; the FLIP/PIC
+  // blend damps (1 - flip) of it per step, a viscosity of order (1 - flip) h^2 / dt.
+  enum class Transfer { FlipPic, TaylorPic };
+  Transfer transfer = Transfer::FlipPic;
   bool volumetric_averaging = false;  // cell-averaged tr L in the constitutive update
   std::vector<double> gravity;
 
