@@ -67,6 +67,9 @@ mpm::Scene load_scene(const std::string& path) {
     const bool tpic = s->choice("transfer", {"flip", "tpic"}, "flip") == "tpic";
     sc.transfer = tpic ? mpm::Scene::Transfer::TaylorPic : mpm::Scene::Transfer::FlipPic;
     sc.flip = s->number_or("flip", tpic ? 0.0 : 0.99, Bounds::closed(0, 1));
+    sc.pic_speed = s->number_or("pic_speed", 0.0, Bounds::positive());
+    if (s->has("flip") && s->has("pic_speed"))
+      s->fail("pic_speed", "give either flip (a fraction per step) or pic_speed (a rate), not both");
     sc.volumetric_averaging = s->boolean_or("volumetric_averaging", false);
     if (s->has("gravity")) sc.gravity = vec(*s, "gravity", D);
     s->finish();

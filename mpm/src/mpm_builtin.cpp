@@ -3,7 +3,10 @@
 //
 //   granflow-mpm column|flume [--h H] [--dt DT] [--time T] [--model pt|frictional]
 //                [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR]
-//                [--transfer flip|tpic] [--flip F] [--stop-after T] [--bench N [--warmup M]]
+//                [--transfer flip|tpic] [--flip F | --pic-speed U] [--stop-after T]
+//                [--bench N [--warmup M]]
+// The paper's scenes relax to PIC at a rate (--pic-speed 1 m/s, Scene::pic_speed); --flip F
+// gives a fixed FLIP fraction per step instead (the scheme before), --transfer tpic Taylor PIC.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -21,7 +24,7 @@ int usage() {
   std::fprintf(stderr,
                "usage: granflow-mpm column|flume [--h H] [--dt DT] [--time T] [--model pt|frictional]\n"
                "       [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR] [--stop-after T]\n"
-               "       [--transfer flip|tpic] [--flip F] [--bench N [--warmup M]]\n"
+               "       [--transfer flip|tpic] [--flip F | --pic-speed U] [--bench N [--warmup M]]\n"
                "defaults: quadratic B-spline; column h 0.001 dt 1e-5 time 1.0; flume h 0.005 dt 1e-6 time 3.0\n");
   return 2;
 }
@@ -37,7 +40,7 @@ int main(int argc, char** argv) {
   ModelKind model = ModelKind::PhaseTransition;
   ShapeKind shape = ShapeKind::QuadraticBSpline;  // linear is unstable at 2.5 and 1 mm (docs/mpm.md)
   std::string backend = "cpu", out, transfer = "flip";
-  double flip = -1;
+  double flip = -1, pic_speed = -1;
   long bench = 0, warmup = 10;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
@@ -52,6 +55,7 @@ int main(int argc, char** argv) {
     else if (a == "--backend") backend = v;
     else if (a == "--transfer") transfer = v;
     else if (a == "--flip") flip = std::atof(v);
+    else if (a == "--pic-speed") pic_speed = std::atof(v);
     else if (a == "--out") out = v;
     else if (a == "--bench") bench = std::atol(v);
     else if (a == "--warmup") warmup = std::atol(v);
@@ -63,8 +67,13 @@ int main(int argc, char** argv) {
     if (transfer == "tpic") {
       sc.transfer = Scene::Transfer::TaylorPic;
       sc.flip = 0.0;
+      sc.pic_speed = 0.0;
     }
-    if (flip >= 0) sc.flip = flip;
+    if (flip >= 0) {
+      sc.flip = flip;
+      sc.pic_speed = 0.0;
+    }
+    if (pic_speed >= 0) sc.pic_speed = pic_speed;
     const SceneSetup su = make_setup(sc);
     auto r = backend == "cuda" ? make_cuda_runner(su) : make_cpu_runner(su);
     std::fprintf(stderr, "%s: %ld particles, %ld nodes, %s\n", sc.name.c_str(), r->particles(), r->nodes(),

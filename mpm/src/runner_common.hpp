@@ -44,6 +44,7 @@ StepParams<D, S, Model> step_params(const SceneSetup& su) {
   sp.dt = S(su.scene.dt);
   sp.flip = S(su.scene.flip);
   sp.affine = su.scene.transfer == Scene::Transfer::TaylorPic ? 1 : 0;
+  sp.pic_speed = S(su.scene.pic_speed);
   sp.damping = S(0);
   double mmin = 1e300;
   for (double m : su.particles.m) mmin = std::min(mmin, m);

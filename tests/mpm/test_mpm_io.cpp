@@ -270,6 +270,8 @@ void expect_same_scene(const Scene& a, const Scene& b) {
   EXPECT_EQ(a.modified_boundary_splines, b.modified_boundary_splines);
   EXPECT_DOUBLE_EQ(a.dt, b.dt);
   EXPECT_DOUBLE_EQ(a.flip, b.flip);
+  EXPECT_DOUBLE_EQ(a.pic_speed, b.pic_speed);
+  EXPECT_EQ(a.transfer, b.transfer);
   EXPECT_EQ(a.material.model, b.material.model);
   EXPECT_DOUBLE_EQ(a.material.e0, b.material.e0);
   EXPECT_DOUBLE_EQ(a.material.T0, b.material.T0);

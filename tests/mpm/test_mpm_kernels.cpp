@@ -62,6 +62,7 @@ Scene block_scene(ModelKind model, bool walls) {
   sc.bodies[0].box_min = {0.2, 0.3};
   sc.bodies[0].box_max = {0.3, 0.4};
   if (!walls) sc.walls.clear();
+  sc.pic_speed = 0;  // the tests set the FLIP fraction per step (set_stage)
   Stage s;
   s.name = "fall";
   s.duration = 0.1;

@@ -44,6 +44,7 @@ struct StepParams {
   S dt;
   S flip;             // FLIP fraction of the FLIP/PIC blend (1: FLIP, 0: PIC)
   int affine;         // P2G carries the affine part m L (x_I - x_p) of the momentum (Taylor PIC)
+  S pic_speed;        // > 0: PIC fraction per step min(1, pic_speed dt / h) instead of 1 - flip
   S damping;          // Cundall local damping on the grid (consolidation stages), 0: none
   S mass_eps;         // nodes lighter than this are treated as empty
   S cfl;              // safety factor of the time-step limit
@@ -243,8 +244,13 @@ GF_HDI std::uint32_t g2p_kinematics(const ParticleView<S>& pv, const GridView<S>
       for (int b = 0; b < D; ++b) L[a][b] += vn * gradN[b];
     }
   }
+  S flip = sp.flip;
+  if (sp.pic_speed > S(0)) {
+    const S pic = sp.pic_speed * sp.dt * sp.grid.inv_h;
+    flip = pic < S(1) ? S(1) - pic : S(0);
+  }
   for (int d = 0; d < D; ++d) {
-    const S v = sp.flip * (pv.f(Lay::V + d, p) + dv[d]) + (S(1) - sp.flip) * vpic[d];
+    const S v = flip * (pv.f(Lay::V + d, p) + dv[d]) + (S(1) - flip) * vpic[d];
     if (!std::isfinite(v)) return kNonFiniteVelocity;
     pv.f(Lay::V + d, p) = v;
     pv.f(Lay::X + d, p) += sp.dt * vpic[d];
