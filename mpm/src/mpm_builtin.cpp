@@ -5,8 +5,10 @@
 //                [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR]
 //                [--transfer flip|tpic] [--flip F | --pic-speed U] [--stop-after T]
 //                [--bench N [--warmup M]]
-// The paper's scenes relax to PIC at a rate (--pic-speed 1 m/s, Scene::pic_speed); --flip F
-// gives a fixed FLIP fraction per step instead (the scheme before), --transfer tpic Taylor PIC.
+// Defaults of the paper's scenes: Taylor PIC with quadratic B-splines (FLIP with linear hats),
+// the PIC part as a rate (--pic-speed 1 m/s, Scene::pic_speed). --transfer flip|tpic picks the
+// transfer, --flip F a fixed FLIP fraction per step instead of the rate (the scheme before:
+// --transfer flip --flip 0.99).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -25,7 +27,8 @@ int usage() {
                "usage: granflow-mpm column|flume [--h H] [--dt DT] [--time T] [--model pt|frictional]\n"
                "       [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR] [--stop-after T]\n"
                "       [--transfer flip|tpic] [--flip F | --pic-speed U] [--bench N [--warmup M]]\n"
-               "defaults: quadratic B-spline; column h 0.001 dt 1e-5 time 1.0; flume h 0.005 dt 1e-6 time 3.0\n");
+               "defaults: quadratic B-spline, Taylor PIC (FLIP with --shape linear), pic-speed 1 m/s;\n"
+               "          column h 0.001 dt 1e-5 time 1.0; flume h 0.005 dt 1e-6 time 3.0\n");
   return 2;
 }
 
@@ -39,7 +42,7 @@ int main(int argc, char** argv) {
   double h = column ? 0.001 : 0.005, dt = column ? 1e-5 : 1e-6, time = column ? 1.0 : 3.0, stop = -1;
   ModelKind model = ModelKind::PhaseTransition;
   ShapeKind shape = ShapeKind::QuadraticBSpline;  // linear is unstable at 2.5 and 1 mm (docs/mpm.md)
-  std::string backend = "cpu", out, transfer = "flip";
+  std::string backend = "cpu", out, transfer;
   double flip = -1, pic_speed = -1;
   long bench = 0, warmup = 10;
   for (int i = 2; i < argc; ++i) {
@@ -62,12 +65,14 @@ int main(int argc, char** argv) {
     else return usage();
   }
   try {
-    if (transfer != "flip" && transfer != "tpic") return usage();
+    if (!transfer.empty() && transfer != "flip" && transfer != "tpic") return usage();
     Scene sc = column ? column_scene(h, dt, model, shape, time) : flume_scene(h, dt, model, shape, time);
     if (transfer == "tpic") {
       sc.transfer = Scene::Transfer::TaylorPic;
       sc.flip = 0.0;
-      sc.pic_speed = 0.0;
+    } else if (transfer == "flip") {
+      sc.transfer = Scene::Transfer::FlipPic;
+      sc.flip = 0.99;
     }
     if (flip >= 0) {
       sc.flip = flip;

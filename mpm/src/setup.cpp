@@ -305,6 +305,13 @@ Scene paper_scene(const char* title, double width, double height, double h, doub
   sc.gravity = {0.0, -9.81};
   sc.dt = dt;
   sc.pic_speed = 1.0;  // PIC part as a rate: flip 0.99 per step at 1 mm and 1e-5 s
+  // Quadratic B-splines: Taylor PIC (affine momentum in P2G), which moves the deposit on and
+  // brings it to rest without FLIP noise; linear hats (the CI scenes) keep FLIP, their velocity
+  // gradient jumps at cell faces and its affine transfer tears points off (docs/mpm.md).
+  if (shape == ShapeKind::QuadraticBSpline) {
+    sc.transfer = Scene::Transfer::TaylorPic;
+    sc.flip = 0.0;  // not used with pic_speed; the TOML default of "tpic"
+  }
   Material& m = sc.material;
   m.name = material;
   m.model = model;
