@@ -34,6 +34,10 @@ GridDesc<D, S> grid_desc(const SceneSetup& su) {
   return g;
 }
 
+// Light nodes: below this fraction of a particle's mass the internal force accelerates the
+// fraction instead of the node's own mass (kernels.hpp grid_update_node).
+inline constexpr double kLightNodeMass = 0.05;
+
 template <int D, class S, class Model>
 StepParams<D, S, Model> step_params(const SceneSetup& su) {
   StepParams<D, S, Model> sp;
@@ -49,6 +53,7 @@ StepParams<D, S, Model> step_params(const SceneSetup& su) {
   double mmin = 1e300;
   for (double m : su.particles.m) mmin = std::min(mmin, m);
   sp.mass_eps = S(1e-8 * mmin);
+  sp.mass_floor = S(kLightNodeMass * mmin);
   sp.cfl = S(su.scene.cfl);
   sp.want_dt_limit = 0;
   sp.vol_avg = su.scene.volumetric_averaging ? 1 : 0;
