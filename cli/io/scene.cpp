@@ -48,6 +48,7 @@ mpm::Scene load_scene(const std::string& path) {
   sc.shape = grid.choice("shape", {"linear", "quadratic"}, "linear") == "linear" ? mpm::ShapeKind::Linear
                                                                                   : mpm::ShapeKind::QuadraticBSpline;
   for (const char* k : {"dim", "origin", "size", "h"}) note(grid, k);
+  sc.modified_boundary_splines = grid.choice("boundary_splines", {"modified", "truncated"}, "modified") == "modified";
   grid.finish();
 
   TomlTable part = root.table("particles");
@@ -68,7 +69,12 @@ mpm::Scene load_scene(const std::string& path) {
   time.finish();
 
   if (auto s = root.optional_table("solver")) {
-    sc.flip = s->number_or("flip", 0.99, Bounds::closed(0, 1));
+    const bool tpic = s->choice("transfer", {"flip", "tpic"}, "flip") == "tpic";
+    sc.transfer = tpic ? mpm::Scene::Transfer::TaylorPic : mpm::Scene::Transfer::FlipPic;
+    sc.flip = s->number_or("flip", tpic ? 0.0 : 0.99, Bounds::closed(0, 1));
+    sc.pic_speed = s->number_or("pic_speed", 0.0, Bounds::positive());
+    if (s->has("flip") && s->has("pic_speed"))
+      s->fail("pic_speed", "give either flip (a fraction per step) or pic_speed (a rate), not both");
     sc.volumetric_averaging = s->boolean_or("volumetric_averaging", false);
     mpm::parse_precision(s->choice("precision", {"fp64", "mixed", "fp32"}, "fp64"), sc.precision);
     if (s->has("gravity")) sc.gravity = vec(*s, "gravity", D);

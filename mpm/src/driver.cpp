@@ -89,18 +89,25 @@ Measures measure(const Frame& fr, const SceneSetup& su, const std::vector<double
       m.max_T = std::max(m.max_T, fr.T[i]);
     }
   }
-  // Front of the contiguous deposit: bins of one grid cell along the line, walked from the
-  // rear until the first empty bin (isolated points thrown ahead do not count).
+  // Front of the contiguous deposit: bins of one grid cell along the line; of the runs of
+  // occupied bins, the one holding the most points (isolated points thrown ahead do not
+  // count, nor does a tail left behind on the slope).
   const double w = sc.h;
   const long nb = static_cast<long>((smax - smin) / w) + 1;
-  std::vector<char> occ(nb, 0);
-  for (long i = 0; i < n; ++i) occ[static_cast<long>((s[i] - smin) / w)] = 1;
-  long last = 0;
-  while (last + 1 < nb && occ[last + 1]) ++last;
-  const double s_end = smin + (last + 1) * w;
-  double front = smin;
+  std::vector<long> occ(nb, 0);
+  for (long i = 0; i < n; ++i) ++occ[static_cast<long>((s[i] - smin) / w)];
+  long first = 0, last = 0, best = -1;
+  for (long b = 0; b < nb;) {
+    if (!occ[b]) { ++b; continue; }
+    long e = b, cnt = 0;
+    while (e < nb && occ[e]) cnt += occ[e++];
+    if (cnt > best) { best = cnt; first = b; last = e - 1; }
+    b = e;
+  }
+  const double s_begin = smin + first * w, s_end = smin + (last + 1) * w;
+  double front = s_begin;
   for (long i = 0; i < n; ++i)
-    if (s[i] < s_end) {
+    if (s[i] >= s_begin && s[i] < s_end) {
       front = std::max(front, s[i]);
       m.height = std::max(m.height, a[i]);
     }

@@ -3,9 +3,13 @@
 //
 //   granflow-mpm column|flume [--h H] [--dt DT] [--time T] [--model pt|frictional]
 //                [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR]
-//                [--stop-after T] [--span N] [--bench N [--warmup M] [--loop span|step] [--split N]]
+//                [--transfer flip|tpic] [--flip F | --pic-speed U] [--stop-after T] [--span N] [--bench N [--warmup M] [--loop span|step] [--split N]]
 //                [CUDA options: --graphs on|off --graph-steps N --sort N --p2g atomic|warp|tile
 //                 --g2p-block N --g2p-regcap on|off] [--precision fp64|mixed|fp32]
+// Defaults of the paper's scenes: Taylor PIC with quadratic B-splines (FLIP with linear hats),
+// the PIC part as a rate (--pic-speed 1 m/s, Scene::pic_speed). --transfer flip|tpic picks the
+// transfer, --flip F a fixed FLIP fraction per step instead of the rate (the scheme before:
+// --transfer flip --flip 0.99).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -24,13 +28,13 @@ int usage() {
   std::fprintf(stderr,
                "usage: granflow-mpm column|flume [--h H] [--dt DT] [--time T] [--model pt|frictional]\n"
                "       [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR] [--stop-after T]\n"
-               "       [--span N] [--bench N [--warmup M] [--loop span|step] [--split N]]\n"
+               "       [--transfer flip|tpic] [--flip F | --pic-speed U] [--span N] [--bench N [--warmup M] [--loop span|step] [--split N]]\n"
                "       CUDA: [--graphs on|off] [--graph-steps N] [--sort N] [--p2g atomic|warp|tile]\n"
                "             [--g2p-block N] [--g2p-regcap on|off]\n"
                "       [--precision fp64|mixed|fp32] (default fp64; docs/mpm.md)\n"
-               "defaults: quadratic B-spline; column h 0.001 dt 1e-5 time 1.0; flume h 0.005 dt 1e-6 time 3.0;\n"
+               "defaults: quadratic B-spline, Taylor PIC (FLIP with --shape linear), pic-speed 1 m/s; column h 0.001 dt 1e-5 time 1.0; flume h 0.005 dt 1e-6 time 3.0;\n"
                "--span: most steps without a host round-trip (1: one per step; default 10000);\n"
-               "CUDA defaults: graphs on, graph-steps 32, sort 32, p2g tile, g2p-block 128, g2p-regcap off\n");
+               "CUDA defaults: graphs on, graph-steps 32, sort 0, p2g atomic, g2p-block 128, g2p-regcap off\n");
   return 2;
 }
 
@@ -44,7 +48,8 @@ int main(int argc, char** argv) {
   double h = column ? 0.001 : 0.005, dt = column ? 1e-5 : 1e-6, time = column ? 1.0 : 3.0, stop = -1;
   ModelKind model = ModelKind::PhaseTransition;
   ShapeKind shape = ShapeKind::QuadraticBSpline;  // linear is unstable at 2.5 and 1 mm (docs/mpm.md)
-  std::string backend = "cpu", out;
+  std::string backend = "cpu", out, transfer;
+  double flip = -1, pic_speed = -1;
   long bench = 0, span = 10000;
   BenchOptions bo;
   bo.warmup = 10;
@@ -61,6 +66,9 @@ int main(int argc, char** argv) {
     else if (a == "--model") model = std::strcmp(v, "frictional") == 0 ? ModelKind::Frictional : ModelKind::PhaseTransition;
     else if (a == "--shape") shape = std::strcmp(v, "quadratic") == 0 ? ShapeKind::QuadraticBSpline : ShapeKind::Linear;
     else if (a == "--backend") backend = v;
+    else if (a == "--transfer") transfer = v;
+    else if (a == "--flip") flip = std::atof(v);
+    else if (a == "--pic-speed") pic_speed = std::atof(v);
     else if (a == "--out") out = v;
     else if (a == "--bench") bench = std::atol(v);
     else if (a == "--warmup") bo.warmup = std::atol(v);
@@ -74,8 +82,21 @@ int main(int argc, char** argv) {
     else return usage();
   }
   try {
+    if (!transfer.empty() && transfer != "flip" && transfer != "tpic") return usage();
     Scene sc = column ? column_scene(h, dt, model, shape, time) : flume_scene(h, dt, model, shape, time);
     sc.precision = precision;
+    if (transfer == "tpic") {
+      sc.transfer = Scene::Transfer::TaylorPic;
+      sc.flip = 0.0;
+    } else if (transfer == "flip") {
+      sc.transfer = Scene::Transfer::FlipPic;
+      sc.flip = 0.99;
+    }
+    if (flip >= 0) {
+      sc.flip = flip;
+      sc.pic_speed = 0.0;
+    }
+    if (pic_speed >= 0) sc.pic_speed = pic_speed;
     const SceneSetup su = make_setup(sc);
     auto r = backend == "cuda" ? make_cuda_runner(su, copt) : make_cpu_runner(su);
     std::fprintf(stderr, "%s: %ld particles, %ld nodes, %s, precision %s\n  %s\n", sc.name.c_str(), r->particles(),

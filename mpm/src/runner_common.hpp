@@ -29,12 +29,17 @@ GridDesc<D, S> grid_desc(const SceneSetup& su) {
   for (int d = 0; d < D; ++d) {
     g.origin[d] = S(su.origin[d]);
     g.nodes[d] = su.nodes[d];
+    g.walls[d] = d < static_cast<int>(su.walls.size()) ? su.walls[d] : AxisWalls{};
   }
   g.h = S(su.scene.h);
   g.inv_h = S(1) / g.h;
   g.n_nodes = su.n_nodes;
   return g;
 }
+
+// Light nodes: below this fraction of a particle's mass the internal force accelerates the
+// fraction instead of the node's own mass (kernels.hpp grid_update_node).
+inline constexpr double kLightNodeMass = 0.05;
 
 template <int D, class S, class Model>
 StepParams<D, S, Model> step_params(const SceneSetup& su) {
@@ -45,10 +50,13 @@ StepParams<D, S, Model> step_params(const SceneSetup& su) {
   for (int d = 0; d < D; ++d) sp.gravity[d] = S(su.scene.gravity[d]);
   sp.dt = S(su.scene.dt);
   sp.flip = S(su.scene.flip);
+  sp.affine = su.scene.transfer == Scene::Transfer::TaylorPic ? 1 : 0;
+  sp.pic_speed = S(su.scene.pic_speed);
   sp.damping = S(0);
   double mmin = 1e300;
   for (double m : su.particles.m) mmin = std::min(mmin, m);
   sp.mass_eps = S(1e-8 * mmin);
+  sp.mass_floor = S(kLightNodeMass * mmin);
   sp.cfl = S(su.scene.cfl);
   sp.want_dt_limit = 0;
   sp.vol_avg = su.scene.volumetric_averaging ? 1 : 0;

@@ -70,6 +70,12 @@ SceneSetup make_setup(const Scene& sc) {
   if (!(sc.h > 0)) fail("grid.h", "must be positive");
   if (sc.ppc_axis < 1) fail("particles.per_cell", "must be at least 1");
   if (sc.stages.empty()) fail("stage", "at least one [[stage]] is required");
+  if (sc.pic_speed < 0) fail("solver.pic_speed", "must not be negative");
+  if (sc.pic_speed > 0)
+    for (size_t i = 0; i < sc.stages.size(); ++i)
+      if (sc.stages[i].flip)
+        fail("stage[" + std::to_string(i) + "].flip",
+             "a FLIP fraction per step cannot be combined with solver.pic_speed (a rate)");
   if (static_cast<int>(sc.gravity.size()) != D) fail("gravity", "needs " + std::to_string(D) + " components");
   const double l = sc.h / sc.ppc_axis;
   su.spacing = l;
@@ -228,6 +234,22 @@ SceneSetup make_setup(const Scene& sc) {
       if (w.axis == o.axis && !w.at_max && o.at_max && !(w.position < o.position))
         fail(o.key, "this wall and " + w.key + " leave no room between them");
   su.has_boundary = !sc.walls.empty() || sc.base.has_value();
+  // Wall node rows for the boundary-modified quadratic B-splines: the last held node row of
+  // each axis-aligned wall (the flume's inclined base and the gates keep truncated splines).
+  su.walls.assign(D, AxisWalls{});
+  if (sc.shape == ShapeKind::QuadraticBSpline && sc.modified_boundary_splines) {
+    for (const Wall& w : sc.walls) {
+      const double c = (w.position - su.origin[w.axis]) / sc.h;
+      AxisWalls& a = su.walls[w.axis];
+      if (w.at_max) {
+        a.hi = static_cast<int>(std::ceil(c - 1e-9));
+        a.has_hi = true;
+      } else {
+        a.lo = static_cast<int>(std::floor(c + 1e-9));
+        a.has_lo = true;
+      }
+    }
+  }
   for (const Stage& st : sc.stages) su.has_boundary = su.has_boundary || st.gate.has_value();
   const double tol = 1e-9 * sc.h;
   for (size_t si = 0; si < sc.stages.size(); ++si) {
@@ -324,6 +346,14 @@ Scene paper_scene(const char* title, double width, double height, double h, doub
   sc.shape = shape;
   sc.gravity = {0.0, -9.81};
   sc.dt = dt;
+  sc.pic_speed = 1.0;  // PIC part as a rate: flip 0.99 per step at 1 mm and 1e-5 s
+  // Quadratic B-splines: Taylor PIC (affine momentum in P2G), which moves the deposit on and
+  // brings it to rest without FLIP noise; linear hats (the CI scenes) keep FLIP, their velocity
+  // gradient jumps at cell faces and its affine transfer tears points off (docs/mpm.md).
+  if (shape == ShapeKind::QuadraticBSpline) {
+    sc.transfer = Scene::Transfer::TaylorPic;
+    sc.flip = 0.0;  // not used with pic_speed; the TOML default of "tpic"
+  }
   Material& m = sc.material;
   m.name = material;
   m.model = model;

@@ -452,6 +452,41 @@ TEST(Frictional, ReturnMapHandlesLargeIncrementsAtLowPressure) {
   EXPECT_LT(iterations, 15 * cases);
 }
 
+TEST(Frictional, ReturnMapBuildsPressureFromZeroStressInSmallIncrements) {
+  // A stress-free skeleton (the MPM column before consolidation, a point restarting after the
+  // cut-off) compressed oedometrically: 0.2 % vertical strain in N increments. The return map
+  // must converge to the rate solution as N grows (first order), never pass through the
+  // cut-off on the way. Before the fix, converged returns below 2 p_min were taken for a stall
+  // at the floor about half of the time and reset to zero: sigma_yy was 0.3 Pa at N = 1000 and
+  // 0.04 Pa at N = 100000 instead of 3.9 kPa.
+  const auto m = test::table3_collapse().f;
+  auto run = [&](int steps, bool implicit) {
+    auto s = state(Mat3<double>::Zero(), 0.0, 0.95);
+    Mat3<double> d = Mat3<double>::Zero();
+    d(1, 1) = -2e-3 / steps;
+    auto mm = m;
+    mm.stol = 1e-10;
+    mm.max_substeps = 1000000;
+    int cutoffs = 0;
+    for (int k = 0; k < steps; ++k) {
+      const auto inf = implicit ? frictional_return_map<SMC>(m, s, d) : frictional_increment<SMC>(mm, s, d);
+      EXPECT_TRUE(inf.ok());
+      cutoffs += (inf.flags & info::kTensionCutoff) != 0;
+    }
+    EXPECT_EQ(cutoffs, 0) << steps << (implicit ? " implicit" : " explicit");
+    return -s.sigma(1, 1);
+  };
+  const double ref = run(2000, false);
+  EXPECT_GT(ref, 3000.0);
+  double prev = 1e300;
+  for (int n : {100, 1000, 10000}) {
+    const double err = std::fabs(run(n, true) - ref) / ref;
+    EXPECT_LT(err, 2.0 / n) << n;  // first order: 0.6 %, 0.09 %, 0.008 %
+    EXPECT_LT(err, prev) << n;
+    prev = err;
+  }
+}
+
 TEST(Frictional, UpdateWithSpinIsSecondOrderInTheStep) {
   // Undrained simple shear (spin = strain rate) with the substepping tight enough that the
   // splitting of rotation and straining dominates: Strang splitting gives order 2.

@@ -267,8 +267,11 @@ void expect_same_scene(const Scene& a, const Scene& b) {
   EXPECT_DOUBLE_EQ(a.h, b.h);
   EXPECT_EQ(a.ppc_axis, b.ppc_axis);
   EXPECT_EQ(a.shape, b.shape);
+  EXPECT_EQ(a.modified_boundary_splines, b.modified_boundary_splines);
   EXPECT_DOUBLE_EQ(a.dt, b.dt);
   EXPECT_DOUBLE_EQ(a.flip, b.flip);
+  EXPECT_DOUBLE_EQ(a.pic_speed, b.pic_speed);
+  EXPECT_EQ(a.transfer, b.transfer);
   EXPECT_EQ(a.material.model, b.material.model);
   EXPECT_DOUBLE_EQ(a.material.e0, b.material.e0);
   EXPECT_DOUBLE_EQ(a.material.T0, b.material.T0);

@@ -27,6 +27,7 @@ enum Status : std::uint32_t {
   kLeftGrid = 1,          // field "position": the stencil of the new position leaves the grid
   kNonFiniteVelocity = 2, // field "velocity"
   kConstitutive = 3,      // field "stress": Model::update reported non-finite / inadmissible
+  kCompacted = 4,         // field "void ratio": the step's volumetric strain takes e to <= 0
 };
 
 // Void ratio at which a dilating point counts as separated (just inside e < 2.97 of Eq. 13).
@@ -43,8 +44,11 @@ struct StepParams {
   S gravity[D];
   S dt;
   S flip;             // FLIP fraction of the FLIP/PIC blend (1: FLIP, 0: PIC)
+  int affine;         // P2G carries the affine part m L (x_I - x_p) of the momentum (Taylor PIC)
+  S pic_speed;        // > 0: PIC fraction per step min(1, pic_speed dt / h) instead of 1 - flip
   S damping;          // Cundall local damping on the grid (consolidation stages), 0: none
   S mass_eps;         // nodes lighter than this are treated as empty
+  S mass_floor;       // internal-force acceleration f / max(m, mass_floor) (light nodes)
   S cfl;              // safety factor of the time-step limit
   int want_dt_limit;  // compute the per-particle stable time step in G2P
   int vol_avg;        // replace tr L by its volume-weighted mean over the particle's bin
@@ -57,7 +61,9 @@ struct P2GParticle {
   S xi[D];        // grid coordinate (x - origin) / h
   S m;
   S mv[D];        // momentum
+  S mLh[D][D];    // m L h: affine momentum per grid unit of (I - xi) (zero without Taylor PIC)
   S Vsig[D][D];   // volume times stress (the in-plane block in 2D)
+  AxisWalls walls[D];  // walls of the grid (boundary-modified quadratic B-splines)
 };
 
 template <int D, class S, class Model>
@@ -66,9 +72,13 @@ GF_HDI P2GParticle<D, S> p2g_load(const ParticleView<S>& pv, long p, const StepP
   P2GParticle<D, S> q;
   q.m = pv.f(Lay::M, p);
   for (int d = 0; d < D; ++d) {
+    q.walls[d] = sp.grid.walls[d];
     q.xi[d] = (pv.f(Lay::X + d, p) - sp.grid.origin[d]) * sp.grid.inv_h;
     q.mv[d] = q.m * pv.f(Lay::V + d, p);
   }
+  const S mh = sp.affine ? q.m * sp.grid.h : S(0);
+  for (int a = 0; a < D; ++a)
+    for (int b = 0; b < D; ++b) q.mLh[a][b] = mh * pv.f(Lay::L + a * D + b, p);
   const S V = q.m * (S(1) + pv.f(Lay::E, p)) / sp.rho_p;  // V = m / rho, rho = rho_p / (1 + e)
   const Mat3<S> sig = load_sym(pv, Lay::SIG, p);
   for (int a = 0; a < D; ++a)
@@ -81,9 +91,8 @@ template <int D, class S, class Shape>
 GF_HDI void p2g_contribution(const P2GParticle<D, S>& q, const int* I, S inv_h, S* out) {
   S w[D], g[D];
   for (int d = 0; d < D; ++d) {
-    const S r = q.xi[d] - S(I[d]);
-    w[d] = Shape::w(r);
-    g[d] = Shape::dw(r) * inv_h;
+    weight_1d<Shape>(q.xi[d], I[d], q.walls[d], w[d], g[d]);
+    g[d] *= inv_h;
   }
   S N = S(1);
   for (int d = 0; d < D; ++d) N *= w[d];
@@ -95,7 +104,11 @@ GF_HDI void p2g_contribution(const P2GParticle<D, S>& q, const int* I, S inv_h, 
     gradN[d] = v;
   }
   out[0] = N * q.m;
-  for (int d = 0; d < D; ++d) out[1 + d] = N * q.mv[d];
+  for (int d = 0; d < D; ++d) {
+    S mv = q.mv[d];
+    for (int b = 0; b < D; ++b) mv += q.mLh[d][b] * (S(I[b]) - q.xi[b]);
+    out[1 + d] = N * mv;
+  }
   for (int a = 0; a < D; ++a) {
     S f = S(0);
     for (int b = 0; b < D; ++b) f -= q.Vsig[a][b] * gradN[b];
@@ -129,7 +142,7 @@ GF_HDI bool stencil_base(const S* xi, const GridDesc<D, S>& g, int* base) {
       inside = false;
       continue;
     }
-    base[d] = Shape::base(xi[d]);
+    base[d] = stencil_base_1d<Shape>(xi[d], g.walls[d]);
     if (base[d] < 0 || base[d] + Shape::K > g.nodes[d]) inside = false;
   }
   return inside;
@@ -149,7 +162,12 @@ GF_HDI void grid_update_node(const GridView<S>& gv, long I, const StepParams<D, 
   if constexpr (kBoundary) mask = gv.mask[I];
   for (int d = 0; d < D; ++d) {
     const S vo = gv.f(G::P + d, I) / m;
-    S a = gv.f(G::F + d, I) / m + sp.gravity[d];
+    // A node touched only by the edge of a stencil has a tiny mass but not a tiny force
+    // (linear hats: the full gradient; quadratic: ~ sqrt of the weight), so f / m is unbounded
+    // and one step can give its neighbours' points any velocity gradient: a point at the
+    // released column face at 2.5 mm (linear) got tr L dt = -1.7 in one step and an
+    // inadmissible void ratio. Below mass_floor the force is applied to mass_floor instead.
+    S a = gv.f(G::F + d, I) / (m > sp.mass_floor ? m : sp.mass_floor) + sp.gravity[d];
     if (sp.damping > S(0)) a -= sp.damping * std::fabs(a) * (vo > S(0) ? S(1) : (vo < S(0) ? S(-1) : S(0)));
     S vn = vo + sp.dt * a;
     if constexpr (kBoundary) {
@@ -215,9 +233,8 @@ GF_HDI std::uint32_t g2p_kinematics(const ParticleView<S>& pv, const GridView<S>
     stencil_node<D, Shape::K>(base, k, I);
     S w[D], g[D];
     for (int d = 0; d < D; ++d) {
-      const S r = xi[d] - S(I[d]);
-      w[d] = Shape::w(r);
-      g[d] = Shape::dw(r) * sp.grid.inv_h;
+      weight_1d<Shape>(xi[d], I[d], sp.grid.walls[d], w[d], g[d]);
+      g[d] *= sp.grid.inv_h;
     }
     S N = S(1);
     for (int d = 0; d < D; ++d) N *= w[d];
@@ -236,8 +253,13 @@ GF_HDI std::uint32_t g2p_kinematics(const ParticleView<S>& pv, const GridView<S>
       for (int b = 0; b < D; ++b) L[a][b] += vn * gradN[b];
     }
   }
+  S flip = sp.flip;
+  if (sp.pic_speed > S(0)) {
+    const S pic = sp.pic_speed * sp.dt * sp.grid.inv_h;
+    flip = pic < S(1) ? S(1) - pic : S(0);
+  }
   for (int d = 0; d < D; ++d) {
-    const S v = sp.flip * (pv.f(Lay::V + d, p) + dv[d]) + (S(1) - sp.flip) * vpic[d];
+    const S v = flip * (pv.f(Lay::V + d, p) + dv[d]) + (S(1) - flip) * vpic[d];
     if (!std::isfinite(v)) return kNonFiniteVelocity;
     pv.f(Lay::V + d, p) = v;
     pv.f(Lay::X + d, p) += sp.dt * vpic[d];
@@ -296,6 +318,10 @@ GF_HDI std::uint32_t constitutive_particle(const ParticleView<S>& pv, long p, co
     store_sym(pv, Lay::SIG, p, Mat3<S>(Mat3<S>::Zero()));
     pv.f(Lay::E, p) = S(kSeparatedVoidRatio);
     *upd_info |= kSeparatedFlag;
+  } else if ((inf.flags & info::kInadmissible) && !(e_trial > S(0))) {
+    // Compaction past e = 0 in one step: no granular skeleton does that; it is a velocity
+    // gradient from a blown-up node (light nodes, grid_update_node), reported as such.
+    return kCompacted | (inf.flags << 8);
   } else {
     return kConstitutive | (inf.flags << 8);
   }
@@ -322,6 +348,7 @@ inline const char* status_field(std::uint32_t s) {
     case kNonFiniteVelocity: return "velocity (non-finite)";
     case kConstitutive: return (s >> 8) & info::kInadmissible ? "stress (inadmissible state: void ratio or T)"
                                                               : "stress (non-finite constitutive update)";
+    case kCompacted: return "void ratio (compacted to e <= 0 within one step: a blown-up velocity gradient)";
     default: return "none";
   }
 }

@@ -7,6 +7,8 @@
 
 #include <granflow/constitutive.hpp>
 
+#include "shape.hpp"
+
 namespace granflow::mpm {
 
 // Particle fields. Stresses are stored as symmetric 3x3 in Voigt order xx, yy, zz, yz, xz, xy
@@ -51,7 +53,8 @@ struct GridView {
   GF_HDI S& f(int field, long i) const { return a[static_cast<long>(field) * n + i]; }
 };
 
-// Background grid: nodes at origin + I h, I in [0, cells] per axis.
+// Background grid: nodes at origin + I h, I in [0, cells] per axis. `walls` (default none)
+// selects the boundary-modified quadratic B-splines at axis-aligned walls (shape.hpp).
 template <int D, class S>
 struct GridDesc {
   S origin[D];
@@ -59,6 +62,7 @@ struct GridDesc {
   S inv_h;
   int nodes[D];
   long n_nodes;
+  AxisWalls walls[D] = {};
   GF_HDI long linear(const int* I) const {
     long k = I[D - 1];
     for (int d = D - 2; d >= 0; --d) k = k * nodes[d] + I[d];

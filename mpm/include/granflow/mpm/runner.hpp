@@ -30,6 +30,7 @@ struct SceneSetup {
   HostParticles particles;
   std::vector<double> origin;   // grid origin (padded)
   std::vector<int> nodes;       // nodes per axis
+  std::vector<AxisWalls> walls; // per axis: wall node rows for the boundary-modified B-splines
   long n_nodes = 0;
   double spacing = 0;           // initial particle spacing h / ppc_axis
   std::vector<std::vector<std::uint8_t>> stage_masks;  // one node mask per stage

@@ -114,7 +114,25 @@ struct Scene {
   double h = 0;                      // grid spacing
   int ppc_axis = 2;                  // particles per cell along each axis (4 per cell in 2D)
   ShapeKind shape = ShapeKind::Linear;
+  // Quadratic B-splines at axis-aligned walls: boundary-modified (interpolatory at the wall,
+  // shape.hpp weight_1d) or merely truncated (the held nodes beyond the wall keep their share).
+  bool modified_boundary_splines = true;
   double flip = 0.99;
+  // > 0: the PIC part is a rate instead of a fraction per step: each step the particle
+  // velocities relax towards the grid (PIC) velocity by min(1, pic_speed dt / h), i.e. once
+  // per time a signal at pic_speed [m/s] needs to cross a cell; `flip` is then not used. A
+  // fixed fraction per step is a transfer viscosity ~ (1 - flip) h^2 / dt that grows as the
+  // step shrinks (column run-out 0.23 to 0.28 m at 20 mm between dt 1e-5 and 1e-4 s with
+  // flip 0.99); the rate gives ~ pic_speed h, independent of dt, vanishing with h. The paper's
+  // scenes use 1 m/s (~ sqrt(g h0) of the column), which is flip 0.99 at 1 mm and dt 1e-5 s.
+  double pic_speed = 0;
+  // Velocity transfer. FlipPic: P2G of m v, G2P blend of FLIP and PIC (`flip`). TaylorPic:
+  // P2G of m (v + L (x_I - x_p)) with the particle's velocity gradient L (Taylor PIC,
+  // Nakamura et al. 2023, CMAME 403:115720; APIC with C = L); with flip = 0 the G2P is PIC.
+  // PIC damps every velocity field that is not affine on the scale of a cell; the FLIP/PIC
+  // blend damps (1 - flip) of it per step, a viscosity of order (1 - flip) h^2 / dt.
+  enum class Transfer { FlipPic, TaylorPic };
+  Transfer transfer = Transfer::FlipPic;
   bool volumetric_averaging = false;  // cell-averaged tr L in the constitutive update
   Precision precision = Precision::FP64;
   std::vector<double> gravity;
