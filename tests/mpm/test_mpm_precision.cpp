@@ -144,7 +144,10 @@ TEST(MpmPrecision, SceneKeyAndItsLimits) {
   auto with_solver = [&](const std::string& line) {
     const auto path = std::filesystem::temp_directory_path() / "granflow_precision_scene.toml";
     std::string t = text;
-    t.replace(t.find("[material]"), 10, "[solver]\n" + line + "\n\n[material]");
+    if (t.find("[solver]") != std::string::npos)
+      t.replace(t.find("[solver]"), 8, "[solver]\n" + line);
+    else
+      t.replace(t.find("[material]"), 10, "[solver]\n" + line + "\n\n[material]");
     std::ofstream(path) << t;
     return path.string();
   };
