@@ -605,6 +605,14 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
     }
   }
   inf.substeps = it + 1;
+  if (!converged && std::isfinite(dL) && p < S(2) * mp.p_min) {
+    // No root found within a few Pa of zero pressure, where the moduli and e_c have their
+    // kink at p_min: the return ends at the cut-off (an error of at most 2 p_min in p). The
+    // explicit fallback would cost a GPU warp hundreds of substeps for these few pascals
+    // (1 mm column: 0.005 % of the updates made the mean step 2.6 times slower).
+    p = S(0);
+    converged = true;
+  }
   if (!converged) {
     // Rare: fall back to the error-controlled explicit integration of the same law.
     FrictionalState<S> fb = st;
