@@ -11,6 +11,7 @@
 
 #include "io/scene.hpp"
 #include "one_thread.hpp"
+#include "tiny_column.hpp"
 
 using namespace granflow;
 using namespace granflow::mpm;
@@ -37,17 +38,7 @@ SlabRun run_scene(const Scene& sc) {
 }
 
 // The 2D column of the same size: the CI column on a 20 mm grid (the tiny column of the tests).
-Scene plane_strain_column(ShapeKind shape) {
-  Scene sc = small_column_scene(ModelKind::PhaseTransition, shape);
-  sc.h = 0.02;
-  sc.dt = 2e-4;
-  sc.size = {0.60, 0.16};
-  sc.stages[0].duration = 0.06;
-  sc.stages[1].duration = 0.3;
-  sc.output.times = {0.3};
-  sc.output.series_dt = 0.01;
-  return sc;
-}
+Scene plane_strain_column(ShapeKind shape) { return test::tiny_column(ModelKind::PhaseTransition, shape); }
 
 }  // namespace
 

@@ -12,6 +12,7 @@
 #include <granflow/mpm/driver.hpp>
 
 #include "one_thread.hpp"
+#include "tiny_column.hpp"
 
 using namespace granflow;
 using namespace granflow::mpm;
@@ -26,18 +27,7 @@ RunSummary run_quiet(const SceneSetup& su) {
   return run(su, *r, opt);
 }
 
-// The CI column on a 20 mm grid (200 points) with a larger step, for ctest.
-Scene tiny_column(ModelKind model) {
-  Scene sc = small_column_scene(model);
-  sc.h = 0.02;
-  sc.dt = 2e-4;
-  sc.size = {0.60, 0.16};
-  sc.stages[0].duration = 0.06;
-  sc.stages[1].duration = 0.3;
-  sc.output.times = {0.3};
-  sc.output.series_dt = 0.01;
-  return sc;
-}
+using test::tiny_column;
 
 }  // namespace
 

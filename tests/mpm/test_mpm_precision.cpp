@@ -14,6 +14,7 @@
 #include "io/input_error.hpp"
 #include "io/scene.hpp"
 #include "one_thread.hpp"
+#include "tiny_column.hpp"
 
 using namespace granflow;
 using namespace granflow::mpm;
@@ -39,16 +40,8 @@ Result run_quiet(const Scene& sc) {
   return res;
 }
 
-// The CI column on a 20 mm grid (200 points), as tiny_column in test_mpm_physics.cpp.
 Scene tiny_column(ModelKind model, ShapeKind shape, Precision prec) {
-  Scene sc = small_column_scene(model, shape);
-  sc.h = 0.02;
-  sc.dt = 2e-4;
-  sc.size = {0.60, 0.16};
-  sc.stages[0].duration = 0.06;
-  sc.stages[1].duration = 0.3;
-  sc.output.times = {0.3};
-  sc.output.series_dt = 0.01;
+  Scene sc = test::tiny_column(model, shape);
   sc.precision = prec;
   return sc;
 }

@@ -16,6 +16,7 @@
 #include <granflow/mpm/driver.hpp>
 
 #include "one_thread.hpp"
+#include "tiny_column.hpp"
 
 using namespace granflow;
 using namespace granflow::mpm;
@@ -33,16 +34,12 @@ void expect_same_state(const HostParticles& a, const HostParticles& b, const std
   EXPECT_EQ(a.s, b.s) << what;
 }
 
-// The CI column on a 20 mm grid (200 points), short stages.
+// The tiny column with short stages.
 Scene tiny_column() {
-  Scene sc = small_column_scene(ModelKind::PhaseTransition);
-  sc.h = 0.02;
-  sc.dt = 2e-4;
-  sc.size = {0.60, 0.16};
+  Scene sc = test::tiny_column(ModelKind::PhaseTransition);
   sc.stages[0].duration = 0.02;
   sc.stages[1].duration = 0.06;
   sc.output.times = {0.03};
-  sc.output.series_dt = 0.01;
   return sc;
 }
 
