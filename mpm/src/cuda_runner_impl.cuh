@@ -485,11 +485,7 @@ class CudaRunner final : public Runner {
     s.adaptive = want_dt_limit;
     s.dt_max = std::numeric_limits<double>::infinity();  // next dt = the limit itself
     const SpanResult r = advance_span(s);
-    StepResult out;
-    out.ok = r.ok;
-    out.particle = r.particle;
-    out.status = r.status;
-    out.steps = r.steps;
+    StepResult out = step_result(r);
     if (want_dt_limit && r.ok) out.dt_limit = r.dt;
     return out;
   }

@@ -57,14 +57,12 @@ std::string scratch_root(const std::string& prefix) {
   return root;
 }
 
-namespace {
 std::string slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::ostringstream os;
   os << in.rdbuf();
   return os.str();
 }
-}  // namespace
 
 int start_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args) {
   const std::string out_path = dir + "/../" + "stdout.txt", err_path = dir + "/../" + "stderr.txt";

@@ -52,5 +52,7 @@ std::string edit(const std::string& base, const std::string& from, const std::st
 // suites at the same time); removed at exit when every test passed, kept for a look otherwise.
 std::string scratch_root(const std::string& prefix);
 std::string drop_line(const std::string& base, const std::string& line_start);
+// The whole file as bytes (empty when it cannot be read).
+std::string slurp(const std::string& path);
 
 }  // namespace reliability

@@ -20,12 +20,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream os;
-  os << in.rdbuf();
-  return os.str();
-}
 
 fs::path fresh_dir(const std::string& name) {
   const fs::path root = fs::path(scratch_root("granflow_bad_input")) / name;

@@ -24,12 +24,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream os;
-  os << in.rdbuf();
-  return os.str();
-}
 
 // The CI column (mpm/scenes/column_collapse_ci.toml) on a 20 mm grid, 0.04 s consolidation +
 // 0.36 s collapse (2000 steps, about half a second), a checkpoint every 0.02 s.

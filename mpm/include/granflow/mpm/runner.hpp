@@ -159,18 +159,22 @@ inline SpanResult Runner::advance_span(const Span& s) {
   return r;
 }
 
-inline StepResult Runner::advance(long nsteps, double dt, bool timing) {
-  Span s;
-  s.max_steps = nsteps;
-  s.dt = dt;
-  s.timing = timing;
-  const SpanResult r = advance_span(s);
+// The outcome of a span as a StepResult (no step limit).
+inline StepResult step_result(const SpanResult& r) {
   StepResult out;
   out.ok = r.ok;
   out.particle = r.particle;
   out.status = r.status;
   out.steps = r.steps;
   return out;
+}
+
+inline StepResult Runner::advance(long nsteps, double dt, bool timing) {
+  Span s;
+  s.max_steps = nsteps;
+  s.dt = dt;
+  s.timing = timing;
+  return step_result(advance_span(s));
 }
 
 // Fast paths of the CUDA backend, each with a switch for comparisons (docs/mpm.md, "GPU step").
