@@ -3,6 +3,8 @@
 
 #include <cmath>
 #include <functional>
+#include <random>
+#include <algorithm>
 
 #include "reference.hpp"
 
@@ -485,6 +487,48 @@ TEST(Frictional, ReturnMapBuildsPressureFromZeroStressInSmallIncrements) {
     EXPECT_LT(err, prev) << n;
     prev = err;
   }
+}
+
+TEST(Frictional, ReturnMapCostIsBoundedNearZeroPressure) {
+  // Random low-pressure states (0.1 Pa to 100 Pa, around the floor p_min = 1 Pa; the free
+  // surface of a flow) under shear and volumetric increments up to 1 %: every return converges
+  // without the explicit fallback, ends on the yield surface or at the cut-off, and costs a
+  // bounded number of residual evaluations. Newton steps across the kink at p_min used to creep
+  // (step halving every iteration): up to 1,084 evaluations, 46 fallbacks in 400,000 such cases;
+  // a GPU warp waits for its slowest point.
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(0, 1);
+  long evaluations = 0, cases = 0;
+  int worst = 0;
+  for (double phi : {19.8, 38.0}) {
+    auto m = test::table3_collapse().f;
+    m.phi_c = phi * kDeg;
+    for (int k = 0; k < 20000; ++k) {
+      const double p0 = std::pow(10.0, -1 + 3 * u(rng)), q0 = 1.2 * p0 * u(rng);
+      Mat3<double> sigma = test::isotropic(p0);
+      sigma(0, 0) -= q0 / 3;
+      sigma(1, 1) += q0 / 3;
+      auto s = state(sigma, std::pow(10.0, -4 + 4 * u(rng)), 0.8 + 0.4 * u(rng));
+      const double g = std::pow(10.0, -6 + 4 * u(rng));
+      Mat3<double> d = Mat3<double>::Zero();
+      d(0, 1) = d(1, 0) = g * (u(rng) - 0.5);
+      d(0, 0) = g * (u(rng) - 0.5);
+      d(1, 1) = g * (u(rng) - 0.5);
+      const auto inf = frictional_return_map<SMC>(m, s, d);
+      ASSERT_TRUE(inf.ok());
+      ASSERT_FALSE(inf.flags & info::kReturnFallback) << "case " << k << ", phi_c " << phi;
+      ASSERT_TRUE(all_finite(s.sigma));
+      if (!(inf.flags & info::kTensionCutoff)) {
+        ASSERT_GE(mean_pressure(s.sigma), 0.0);
+        ASSERT_LE(yield_function<SMC>(m, s.sigma, s.eps_pd, s.e), 1e-8) << "case " << k << ", phi_c " << phi;
+      }
+      evaluations += inf.substeps;
+      worst = std::max(worst, inf.substeps);
+      ++cases;
+    }
+  }
+  EXPECT_LE(worst, 80);
+  EXPECT_LT(evaluations, 5 * cases);
 }
 
 TEST(Frictional, UpdateWithSpinIsSecondOrderInTheStep) {

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cmath>
+#include <limits>
 
 #include "config.hpp"
 #include "params.hpp"
@@ -507,6 +508,139 @@ struct ReturnMapResidual {
   }
 };
 
+// Fallback of the return map when the two-unknown Newton iteration stalls: a step across the
+// kink of the moduli and e_c at p_min (or near the apex) that no step length improves. Such an
+// iteration crept through hundreds of halved steps at the free surface of a flow (over 1,000
+// residual evaluations for one update), and a GPU warp waits for its slowest point.
+//
+// 1. Floored branch. Below p_min the moduli, e_c and r = q / p_min do not depend on p, so R2 is
+//    a function of dLambda alone, convex (h is concave) and decreasing from R2(0) > 0 to
+//    R2(dL_max) = -G M_p h < 0: Newton from dLambda = 0 climbs monotonically to its one root,
+//    and R1 = 0 gives p explicitly. That root is the return wherever its p <= p_min (most often
+//    p <= 0: the skeleton opens within the increment).
+// 2. Otherwise, bracketed. For a fixed dLambda, R1 is strictly increasing in p (dR1/dp >= 1 /
+//    scale: Dg falls with p through r = q / p and rises through M_pt; below p_min it is linear),
+//    so p(dLambda) is unique and found by Newton safeguarded by its sign bracket.
+//    g(dLambda) = R2(p(dLambda), dLambda) is positive at 0 (the trial state lies outside the yield
+//    surface) and negative at dL_max (q = 0), so Newton on g with its derivative along
+//    R1 = 0, safeguarded by bisection of [0, dL_max], always converges.
+template <class Residual, class S>
+GF_HDI bool floored_return(const Residual& res, S dL_max, S ftol, S& p, S& dL, typename Residual::Value& v,
+                           int& evaluations) {
+  S x = S(0);
+  for (int it = 0; it < 40; ++it) {
+    v = res(S(0), x);  // p = 0: every p-dependence frozen at p_min
+    ++evaluations;
+    // Monotone from below: R2 >= 0 up to round-off, so a negative value is converged too.
+    if (std::fabs(v.R2) <= ftol || (it > 0 && !(v.R2 > S(0)))) {
+      dL = x;
+      p = -v.R1 * res.scale;  // R1 is linear in p with slope 1 / scale
+      return p <= res.mp.p_min;
+    }
+    if (!(v.dR2_dL < S(0))) return false;
+    S next = x - v.R2 / v.dR2_dL;
+    if (!(next <= dL_max)) next = dL_max;
+    if (!(next > x)) {  // round-off: the iterate no longer moves
+      dL = x;
+      p = -v.R1 * res.scale;
+      return std::fabs(v.R2) <= S(1e3) * ftol && p <= res.mp.p_min;
+    }
+    x = next;
+  }
+  return false;
+}
+
+template <class Residual>
+struct BracketedReturn {
+  using S = decltype(Residual::Value::R1);
+  bool found = false;
+  S p = 0, dL = 0;
+  typename Residual::Value v{};
+};
+
+// p(dLambda): the root of R1 in p for a fixed dLambda. R1 is linear up to p_min (slope 1 /
+// scale) and steeper above (its slope jumps by orders of magnitude at p_min, then falls with p),
+// so an iterate at or below p_min gives the floored root p_f exactly: it is the answer if
+// p_f <= p_min, and otherwise an upper bound of a root in (p_min, p_f]. Newton safeguarded by
+// the sign bracket, with false position (Illinois) where a step leaves it.
+template <class Residual, class S>
+GF_HDI bool pressure_for_multiplier(const Residual& res, S dL, S& p, typename Residual::Value& v, S tol,
+                                    int& evaluations) {
+  constexpr S kInf = std::numeric_limits<S>::infinity();
+  const S p_min = res.mp.p_min;
+  S lo = -kInf, hi = kInf, r_lo = 0, r_hi = 0;
+  int side = 0;  // which end moved last (+1: hi, -1: lo), for the Illinois halving
+  for (int it = 0; it < 60; ++it) {
+    v = res(p, dL);
+    ++evaluations;
+    if (std::fabs(v.R1) <= tol) return true;
+    S next = p - v.R1 / v.dR1_dp;
+    if (!(p > p_min)) {  // floored: linear in p, and nothing else depends on p
+      if (!(next > p_min)) {
+        p = next;
+        v.R1 = S(0);
+        return true;
+      }
+      lo = p_min;
+      r_lo = (p_min - next) * v.dR1_dp;
+      hi = next;
+      r_hi = S(0);  // an upper bound: R1(next) >= 0
+      side = 0;
+      next = S(0.5) * (lo + hi);
+      if (next == p) return false;
+      p = next;
+      continue;
+    }
+    if (v.R1 > S(0)) {
+      hi = p;
+      r_hi = v.R1;
+      if (side == 1) r_lo *= S(0.5);
+      side = 1;
+    } else {
+      lo = p;
+      r_lo = v.R1;
+      if (side == -1) r_hi *= S(0.5);
+      side = -1;
+    }
+    if (!(next > lo && next < hi)) {
+      if (!(hi < kInf)) return false;
+      next = lo > -kInf && r_hi > r_lo ? lo - r_lo * (hi - lo) / (r_hi - r_lo) : S(0.5) * (p_min + hi);
+      if (!(next > lo && next < hi)) next = S(0.5) * (lo + hi);
+    }
+    if (next == p) return true;  // round-off: the bracket is closed
+    p = next;
+  }
+  return false;
+}
+
+template <class Residual, class S>
+GF_HDI BracketedReturn<Residual> bracketed_return(const Residual& res, S p, S dL, S dL_max, S ftol, S vol_tol,
+                                                  int& evaluations) {
+  BracketedReturn<Residual> out;
+  S a = S(0), b = dL_max;  // g(a) > 0 > g(b)
+  if (!(dL > a && dL < b)) dL = S(0.5) * (a + b);
+  typename Residual::Value v{};
+  for (int it = 0; it < 80; ++it) {
+    if (!pressure_for_multiplier(res, dL, p, v, vol_tol, evaluations)) return out;
+    if (std::fabs(v.R2) <= ftol || !(b - a > S(4) * std::numeric_limits<S>::epsilon() * dL_max)) {
+      out.found = true;
+      out.p = p;
+      out.dL = dL;
+      out.v = v;
+      return out;
+    }
+    if (v.R2 > S(0)) a = dL;
+    else b = dL;
+    const S dp_dL = -v.dR1_dL / v.dR1_dp;  // along the curve R1 = 0
+    const S dg = v.dR2_dL + v.dR2_dp * dp_dL;
+    S next = dL - v.R2 / dg;
+    if (!(next > a && next < b)) next = S(0.5) * (a + b);
+    p += dp_dL * (next - dL);  // tangent predictor for the next pressure solve
+    dL = next;
+  }
+  return out;
+}
+
 }  // namespace detail
 
 template <LodeShape L, class S>
@@ -548,10 +682,13 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
   const S dL_max = inv.q / (S(3) * yt.C.G);  // q >= 0
   if (dL > dL_max) dL = dL_max;
   auto v = res(p, dL);
+  int evaluations = 1;
   using Tol = Tolerances<S>;
+  // Newton iterations, and halvings of one Newton step, after which the bracketed return takes
+  // over (a converging Newton iteration needs 2-7 iterations and at most a few halvings).
+  constexpr int kNewtonBeforeBracket = 12, kHalvingsBeforeBracket = 4;
   bool converged = false;
-  int it = 0;
-  for (; it < 50; ++it) {
+  for (int it = 0; it < 50; ++it) {
     if (std::fabs(v.R1) <= Tol::kVolResidual && std::fabs(v.R2) <= mp.ftol) {
       converged = true;
       break;
@@ -566,10 +703,16 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
     const S p_prev = p;
     S lam = S(1);
     bool moved = false;
-    for (int ls = 0; ls < 40; ++ls) {  // step halving on the residual norm, 0 <= dL <= dL_max
+    bool stalled = it >= kNewtonBeforeBracket;
+    for (int ls = 0; ls < 40 && !stalled; ++ls) {  // step halving on the residual norm, 0 <= dL <= dL_max
+      if (ls == kHalvingsBeforeBracket) {
+        stalled = true;
+        break;
+      }
       S dl_try = dL + lam * ddl;
       dl_try = dl_try < S(0) ? S(0) : (dl_try > dL_max ? dL_max : dl_try);
       const auto vt = res(p + lam * dp, dl_try);
+      ++evaluations;
       if (std::fabs(vt.R1) + std::fabs(vt.R2) < norm0) {
         p += lam * dp;
         dL = dl_try;
@@ -578,6 +721,20 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
         break;
       }
       lam *= S(0.5);
+    }
+    if (stalled) {
+      if (detail::floored_return(res, dL_max, mp.ftol, p, dL, v, evaluations)) {
+        converged = true;
+        break;
+      }
+      const auto br = detail::bracketed_return(res, p_prev, dL, dL_max, mp.ftol, Tol::kVolResidual, evaluations);
+      if (br.found) {
+        p = br.p;
+        dL = br.dL;
+        v = br.v;
+        converged = true;
+      }
+      break;
     }
     if (!moved || !std::isfinite(p) || !std::isfinite(dL)) {
       // stagnation at round-off level counts as converged
@@ -604,7 +761,7 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
       break;
     }
   }
-  inf.substeps = it + 1;
+  inf.substeps = evaluations;  // residual evaluations: the cost of the update
   if (!converged && std::isfinite(dL) && p < S(2) * mp.p_min) {
     // No root found within a few Pa of zero pressure, where the moduli and e_c have their
     // kink at p_min: the return ends at the cut-off (an error of at most 2 p_min in p). The
