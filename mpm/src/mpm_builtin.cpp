@@ -1,7 +1,7 @@
 // granflow-mpm: the paper's scenes built in code, for machines without the TOML/CLI
 // dependencies (the GPU machine has only Eigen and CUDA). Same outputs as `granflow mpm`.
 //
-//   granflow-mpm column|flume [--h H] [--dt DT] [--time T] [--model pt|frictional]
+//   granflow-mpm column|flume [--h H] [--dt DT] [--time T] [--adaptive CFL] [--model pt|frictional]
 //                [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR]
 //                [--transfer flip|tpic] [--flip F | --pic-speed U] [--stop-after T] [--span N] [--bench N [--warmup M] [--loop span|step] [--split N]]
 //                [CUDA options: --graphs on|off --graph-steps N --sort N --p2g atomic|warp|tile
@@ -26,7 +26,7 @@ namespace {
 
 int usage() {
   std::fprintf(stderr,
-               "usage: granflow-mpm column|flume [--h H] [--dt DT] [--time T] [--model pt|frictional]\n"
+               "usage: granflow-mpm column|flume [--h H] [--dt DT] [--time T] [--adaptive CFL] [--model pt|frictional]\n"
                "       [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR] [--stop-after T]\n"
                "       [--transfer flip|tpic] [--flip F | --pic-speed U] [--span N] [--bench N [--warmup M] [--loop span|step] [--split N]]\n"
                "       CUDA: [--graphs on|off] [--graph-steps N] [--sort N] [--p2g atomic|warp|tile]\n"
@@ -49,7 +49,7 @@ int main(int argc, char** argv) {
   ModelKind model = ModelKind::PhaseTransition;
   ShapeKind shape = ShapeKind::QuadraticBSpline;  // linear is unstable at 2.5 and 1 mm (docs/mpm.md)
   std::string backend = "cpu", out, transfer;
-  double flip = -1, pic_speed = -1;
+  double flip = -1, pic_speed = -1, cfl = -1;
   long bench = 0, span = 10000;
   BenchOptions bo;
   bo.warmup = 10;
@@ -62,6 +62,7 @@ int main(int argc, char** argv) {
     if (a == "--h") h = std::atof(v);
     else if (a == "--dt") dt = std::atof(v);
     else if (a == "--time") time = std::atof(v);
+    else if (a == "--adaptive") cfl = std::atof(v);
     else if (a == "--stop-after") stop = std::atof(v);
     else if (a == "--model") model = std::strcmp(v, "frictional") == 0 ? ModelKind::Frictional : ModelKind::PhaseTransition;
     else if (a == "--shape") shape = std::strcmp(v, "quadratic") == 0 ? ShapeKind::QuadraticBSpline : ShapeKind::Linear;
@@ -85,6 +86,10 @@ int main(int argc, char** argv) {
     if (!transfer.empty() && transfer != "flip" && transfer != "tpic") return usage();
     Scene sc = column ? column_scene(h, dt, model, shape, time) : flume_scene(h, dt, model, shape, time);
     sc.precision = precision;
+    if (cfl > 0) {  // CFL step; --dt is then the largest step
+      sc.adaptive = true;
+      sc.cfl = cfl;
+    }
     if (transfer == "tpic") {
       sc.transfer = Scene::Transfer::TaylorPic;
       sc.flip = 0.0;

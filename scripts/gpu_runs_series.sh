@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# GPU session for the error-against-run-time series of issues 5 and 7 (run on the GPU machine
+# from the repository root, $OUT set). Every run appends one row to $OUT/<part>.csv:
+#   scene,h_mm,dt_mode,dt_max,precision,model,exit,steps,wall_s,device_us_per_step,
+#   runout_0.4,runout_0.8,runout_final,height_final,t_end
+# and its whole summary to $OUT/<part>.log; its CSV outputs go to $OUT/<part>.tgz.
+#   scripts/gpu_runs_series.sh check    build, GPU checks, benchmarks, the 20 mm flume's step
+#   scripts/gpu_runs_series.sh column   column mesh series 10/5/2.5/1 mm: fixed and CFL step,
+#                                       fp64 and fp32, both models at 1 mm, linear shapes at 5 mm
+#   scripts/gpu_runs_series.sh flume    flume mesh series 20/10/5 (2.5) mm: the same axes
+#   scripts/gpu_runs_series.sh paperdt  the flume at the paper's dt of 1e-6 s, capped
+# TMO (seconds) caps each run; a capped run's row has exit 124 and what it reached.
+set -uo pipefail
+part=${1:-check}
+B=build-gpu
+if [ ! -x $B/granflow-mpm ]; then
+  t0=$SECONDS
+  GRANFLOW_MPM_CUDA_3D=${GRANFLOW_MPM_CUDA_3D:-OFF} scripts/gpu_build.sh >/dev/null || exit 1
+  echo "build: $((SECONDS - t0)) s" >>$OUT/$part.log
+fi
+R=/tmp/gf_series/$part
+mkdir -p $R
+log=$OUT/$part.log
+csv=$OUT/$part.csv
+[ -f $csv ] || echo "scene,h_mm,dt_mode,dt_max,precision,model,exit,steps,wall_s,device_us_per_step,runout_0.4,runout_0.8,runout_final,height_final,t_end" >$csv
+run() {  # run SCENE H DT MODE(fixed|cfl:X) PRECISION MODEL [extra args]
+  local scene=$1 h=$2 dt=$3 mode=$4 prec=$5 model=$6
+  shift 6
+  local name=${scene}_${h}_${mode/:/}_${prec}_${model}${1:+_x}
+  local args=($scene --backend ${BACKEND:-cuda} --h $h --dt $dt --precision $prec --model $model "$@")
+  [ "${mode%%:*}" = cfl ] && args+=(--adaptive ${mode#cfl:})
+  echo "== $name: granflow-mpm ${args[*]}" >>$log
+  local t0=$SECONDS
+  timeout ${TMO:-120} $B/granflow-mpm "${args[@]}" --out $R/$name >$R/$name.txt 2>&1
+  local rc=$?
+  tr '\r' '\n' <$R/$name.txt | grep -v "steps/s  ETA" >>$log
+  echo "   [$name: exit $rc, $((SECONDS - t0)) s]" >>$log
+  # a run stopped by its cap has no summary: its last progress line says how far it got
+  tr '\r' '\n' <$R/$name.txt | awk -v scene=$scene -v h=$h -v mode=$mode -v dt=$dt -v prec=$prec -v model=$model -v rc=$rc \
+      -v wall=$((SECONDS - t0)) '
+    /^steps:/ {steps=$2} /^wall:/ {wall=$2} /^final run-out:/ {ro=$3} /^final height:/ {ht=$3}
+    /^simulated:/ {tend=$2}
+    /device time per step \(spans\)/ {dev=$6}
+    /t_flow 0.40 s:/ {r4=$5} /t_flow 0.80 s:/ {r8=$5} /^ *t = / {tend=$3}
+    END {
+      printf "%s,%g,%s,%s,%s,%s,%d,%s,%s,%s,%s,%s,%s,%s,%s\n", scene, h * 1000, mode, dt, prec, model, rc,
+             steps, wall, dev, r4, r8, ro, ht, tend
+    }' >>$csv
+}
+if [ "$part" = check ]; then
+  nvidia-smi --query-gpu=name,driver_version,clocks.max.sm --format=csv >>$log
+  timeout 60 $B/tests/cuda/constitutive_device_host >>$log 2>&1; echo "constitutive_device_host exit $?" >>$log
+  OMP_NUM_THREADS=8 timeout 150 $B/mpm_cuda_check --short >>$log 2>&1; echo "mpm_cuda_check exit $?" >>$log
+  echo "== bench column 1 mm pt" >>$log
+  $B/granflow-mpm column --backend cuda --bench 300 --warmup 20 >>$log 2>&1
+  echo "== bench flume 5 mm pt" >>$log
+  $B/granflow-mpm flume --backend cuda --bench 300 --warmup 20 >>$log 2>&1
+  TMO=60 run flume 0.02 1e-5 fixed fp64 pt --stop-after 0.5
+  TMO=100 run column 0.001 1e-5 fixed fp64 pt
+elif [ "$part" = column ]; then
+  for hd in "10 1e-4" "5 5e-5" "2.5 2.5e-5"; do
+    set -- $hd
+    h=$(awk -v m=$1 'BEGIN{print m/1000}')
+    for prec in fp64 fp32; do
+      run column $h $2 fixed $prec pt
+      run column $h 1e-4 cfl:0.5 $prec pt
+    done
+  done
+  run column 0.005 5e-5 fixed fp64 frictional
+  run column 0.005 5e-5 fixed fp64 pt --shape linear
+  TMO=100 run column 0.001 1e-5 fixed fp64 frictional
+  TMO=100 run column 0.001 1e-5 fixed fp32 pt
+  TMO=100 run column 0.001 1e-4 cfl:0.5 fp64 pt
+  TMO=100 run column 0.001 1e-4 cfl:0.5 fp32 pt
+elif [ "$part" = flume ]; then
+  for h in 0.02 0.01 0.005; do
+    for prec in fp64 fp32; do
+      TMO=150 run flume $h 1e-5 fixed $prec pt
+      TMO=150 run flume $h 1e-4 cfl:0.5 $prec pt
+    done
+  done
+  TMO=150 run flume 0.005 1e-4 cfl:0.5 fp64 frictional
+  TMO=150 run flume 0.005 1e-5 fixed fp64 frictional
+else
+  TMO=${TMO:-300} run flume 0.005 1e-6 fixed fp64 pt
+  TMO=${TMO:-200} run flume 0.0025 1e-4 cfl:0.5 fp64 pt
+fi
+(cd $R && find . -name "*.csv" | tar czf $OUT/$part.tgz -T -)
+tail -c 5000 $log
+cat $csv
