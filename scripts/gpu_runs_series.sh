@@ -2,7 +2,7 @@
 # GPU session for the error-against-run-time series of issues 5 and 7 (run on the GPU machine
 # from the repository root, $OUT set). Every run appends one row to $OUT/<part>.csv:
 #   scene,h_mm,dt_mode,dt_max,precision,model,exit,steps,wall_s,device_us_per_step,
-#   runout_0.4,runout_0.8,runout_final,height_final,t_end
+#   runout_0.4,runout_0.8,runout_final,height_final,t_end,extra (the run's further arguments)
 # and its whole summary to $OUT/<part>.log; its CSV outputs go to $OUT/<part>.tgz.
 #   scripts/gpu_runs_series.sh check    build, GPU checks, benchmarks, the 20 mm flume's step
 #   scripts/gpu_runs_series.sh column   column mesh series 10/5/2.5/1 mm: fixed and CFL step,
@@ -22,11 +22,11 @@ R=/tmp/gf_series/$part
 mkdir -p $R
 log=$OUT/$part.log
 csv=$OUT/$part.csv
-[ -f $csv ] || echo "scene,h_mm,dt_mode,dt_max,precision,model,exit,steps,wall_s,device_us_per_step,runout_0.4,runout_0.8,runout_final,height_final,t_end" >$csv
+[ -f $csv ] || echo "scene,h_mm,dt_mode,dt_max,precision,model,exit,steps,wall_s,device_us_per_step,runout_0.4,runout_0.8,runout_final,height_final,t_end,extra" >$csv
 run() {  # run SCENE H DT MODE(fixed|cfl:X) PRECISION MODEL [extra args]
   local scene=$1 h=$2 dt=$3 mode=$4 prec=$5 model=$6
   shift 6
-  local name=${scene}_${h}_${mode/:/}_${prec}_${model}${1:+_x}
+  local name=${scene}_${h}_${mode/:/}_${prec}_${model}${1:+_x} extra="$*"
   local args=($scene --backend ${BACKEND:-cuda} --h $h --dt $dt --precision $prec --model $model "$@")
   [ "${mode%%:*}" = cfl ] && args+=(--adaptive ${mode#cfl:})
   echo "== $name: granflow-mpm ${args[*]}" >>$log
@@ -37,14 +37,14 @@ run() {  # run SCENE H DT MODE(fixed|cfl:X) PRECISION MODEL [extra args]
   echo "   [$name: exit $rc, $((SECONDS - t0)) s]" >>$log
   # a run stopped by its cap has no summary: its last progress line says how far it got
   tr '\r' '\n' <$R/$name.txt | awk -v scene=$scene -v h=$h -v mode=$mode -v dt=$dt -v prec=$prec -v model=$model -v rc=$rc \
-      -v wall=$((SECONDS - t0)) '
+      -v wall=$((SECONDS - t0)) -v extra="$extra" '
     /^steps:/ {steps=$2} /^wall:/ {wall=$2} /^final run-out:/ {ro=$3} /^final height:/ {ht=$3}
     /^simulated:/ {tend=$2}
     /device time per step \(spans\)/ {dev=$6}
     /t_flow 0.40 s:/ {r4=$5} /t_flow 0.80 s:/ {r8=$5} /^ *t = / {tend=$3}
     END {
-      printf "%s,%g,%s,%s,%s,%s,%d,%s,%s,%s,%s,%s,%s,%s,%s\n", scene, h * 1000, mode, dt, prec, model, rc,
-             steps, wall, dev, r4, r8, ro, ht, tend
+      printf "%s,%g,%s,%s,%s,%s,%d,%s,%s,%s,%s,%s,%s,%s,%s,%s\n", scene, h * 1000, mode, dt, prec, model, rc,
+             steps, wall, dev, r4, r8, ro, ht, tend, extra
     }' >>$csv
 }
 if [ "$part" = check ]; then
@@ -82,8 +82,8 @@ elif [ "$part" = flume ]; then
   TMO=150 run flume 0.005 1e-4 cfl:0.5 fp64 frictional
   TMO=150 run flume 0.005 1e-5 fixed fp64 frictional
 else
-  TMO=${TMO:-300} run flume 0.005 1e-6 fixed fp64 pt
-  TMO=${TMO:-200} run flume 0.0025 1e-4 cfl:0.5 fp64 pt
+  TMO=250 run flume 0.005 1e-6 fixed fp64 pt --stop-after 0.9
+  TMO=250 run flume 0.0025 1e-4 cfl:0.5 fp64 pt
 fi
 (cd $R && find . -name "*.csv" | tar czf $OUT/$part.tgz -T -)
 tail -c 5000 $log
