@@ -7,7 +7,7 @@
 #include <cstdio>
 #include <vector>
 
-#include "reference.hpp"
+#include "random_states.hpp"
 
 using namespace granflow;
 
@@ -16,49 +16,18 @@ namespace {
 template <class S>
 using PTm = PhaseTransitionModel<S>;
 
-struct Lcg {  // deterministic, identical on every platform
-  unsigned long long s = 0x9E3779B97F4A7C15ull;
-  double uniform() {
-    s = s * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<double>(s >> 11) * (1.0 / 9007199254740992.0);
-  }
-  double in(double a, double b) { return a + (b - a) * uniform(); }
-};
-
 template <class T, class U>
 Mat3<T> to(const Mat3<U>& m) {
   return m.template cast<T>();
 }
 
-struct Case {
-  PTm<double>::State st;
-  Mat3<double> L;
-  double dt;
-};
+using Case = test::RandomCase;
 
-// Admissible random states (as in tests/cuda/constitutive_device_host.cu), already rounded to
-// float so that both types start from the same numbers; |L dt| up to 10^max_log_strain.
+// The shared random states (random_states.hpp), rounded to float so that both types start from
+// the same numbers.
 std::vector<Case> random_cases(int n, double max_log_strain, unsigned long long seed) {
-  Lcg rng;
-  rng.s = seed;
-  const auto params = test::table3_collapse();
-  std::vector<Case> cases(n);
+  std::vector<Case> cases = test::random_cases(n, max_log_strain, seed);
   for (auto& c : cases) {
-    const double p = std::pow(10.0, rng.in(0.0, 5.0));  // 1 Pa .. 100 kPa
-    Mat3<double> s;
-    for (int i = 0; i < 3; ++i)
-      for (int j = i; j < 3; ++j) s(i, j) = s(j, i) = rng.in(-0.3, 0.3) * p;
-    c.st.sigma_f = s - p * Mat3<double>::Identity();
-    c.st.e = rng.in(0.7, 1.1);
-    c.st.eps_pd = std::pow(10.0, rng.in(-5.0, -0.5));
-    const double eps0 = initial_plastic_strain<LodeShape::SmoothMohrCoulomb>(params.f, c.st.sigma_f, c.st.e);
-    if (eps0 < 0) c.st.sigma_f = -p * Mat3<double>::Identity();
-    if (eps0 > c.st.eps_pd) c.st.eps_pd = eps0 * (1 + 1e-6);
-    c.st.s = std::pow(10.0, rng.in(-8.0, -0.5));
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) c.L(i, j) = rng.in(-1.0, 1.0) * std::pow(10.0, rng.in(-2.0, 2.0));
-    c.dt = std::pow(10.0, rng.in(max_log_strain - 6.0, max_log_strain - 2.0));
-    // round every input to float
     c.st.sigma_f = to<double>(to<float>(c.st.sigma_f));
     c.st.e = float(c.st.e);
     c.st.eps_pd = float(c.st.eps_pd);

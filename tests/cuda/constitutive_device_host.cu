@@ -8,15 +8,13 @@
 
 #include <granflow/constitutive.hpp>
 
+#include "random_states.hpp"
+
 using namespace granflow;
 using PT = PhaseTransitionModel<double>;
 using PTc = PhaseTransitionModel<double, LodeShape::Circular>;
 
-struct Case {
-  PT::State state;
-  Mat3<double> L;
-  double dt;
-};
+using Case = test::RandomCase;
 
 struct Result {
   PT::State state;
@@ -29,7 +27,7 @@ struct Result {
 template <class Model>
 GF_HDI Result run_case(const typename Model::Params& p, const Case& c) {
   Result r;
-  r.state = c.state;
+  r.state = c.st;
   r.stress = Mat3<double>::Zero();
   const UpdateInfo inf = Model::update(p, r.state, c.L, c.dt, r.stress);
   r.flags = inf.flags;
@@ -45,49 +43,7 @@ __global__ void update_kernel(const typename Model::Params p, const Case* cases,
 
 namespace {
 
-struct Lcg {  // deterministic, identical on every platform
-  unsigned long long s = 0x9E3779B97F4A7C15ull;
-  double uniform() {
-    s = s * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<double>(s >> 11) * (1.0 / 9007199254740992.0);
-  }
-  double in(double a, double b) { return a + (b - a) * uniform(); }
-};
-
-PT::Params collapse_params() {
-  PT::Params p;
-  const double deg = 3.14159265358979323846 / 180;
-  p.c.rho_p = 2650; p.c.d = 1.25e-3; p.c.V_sd = 1 / 1.62; p.c.V_m = 0.4; p.c.eps_n = 0.6; p.c.mu_p = 0.2;
-  p.f.K0 = 120; p.f.nu = 0.2; p.f.n = 0.5; p.f.phi_c = 19.8 * deg; p.f.e_ref = 0.977; p.f.lambda_c = 0.0596;
-  p.f.xi = 0.365; p.f.A_d = 0.7; p.f.k_p = 0.0044; p.f.n_p = 2.4; p.f.n_d = 2.9;
-  return p;
-}
-
-// Admissible random states (inside or on the yield surface) and velocity gradients; the largest
-// strain increment |L| dt is 10^max_log_strain.
-std::vector<Case> random_cases(int n, double max_log_strain, unsigned long long seed) {
-  Lcg rng;
-  rng.s = seed;
-  const auto params = collapse_params();
-  std::vector<Case> cases(n);
-  for (auto& c : cases) {
-    const double p = std::pow(10.0, rng.in(0.0, 5.0));  // 1 Pa .. 100 kPa
-    Mat3<double> s;
-    for (int i = 0; i < 3; ++i)
-      for (int j = i; j < 3; ++j) s(i, j) = s(j, i) = rng.in(-0.3, 0.3) * p;
-    c.state.sigma_f = s - p * Mat3<double>::Identity();
-    c.state.e = rng.in(0.7, 1.1);
-    c.state.eps_pd = std::pow(10.0, rng.in(-5.0, -0.5));
-    const double eps0 = initial_plastic_strain<LodeShape::SmoothMohrCoulomb>(params.f, c.state.sigma_f, c.state.e);
-    if (eps0 < 0) c.state.sigma_f = -p * Mat3<double>::Identity();
-    if (eps0 > c.state.eps_pd) c.state.eps_pd = eps0;
-    c.state.s = std::pow(10.0, rng.in(-8.0, -0.5));
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) c.L(i, j) = rng.in(-1.0, 1.0) * std::pow(10.0, rng.in(-2.0, 2.0));
-    c.dt = std::pow(10.0, rng.in(max_log_strain - 6.0, max_log_strain - 2.0));
-  }
-  return cases;
-}
+using test::random_cases;
 
 double rel(double a, double b, double scale) { return std::fabs(a - b) / (std::fabs(b) + scale); }
 
@@ -103,7 +59,7 @@ double rel(double a, double b, double scale) { return std::fabs(a - b) / (std::f
 template <class Model>
 int compare(const char* name, const std::vector<Case>& cases) {
   const int n = static_cast<int>(cases.size());
-  const auto p = collapse_params();
+  const auto p = test::table3_collapse();
   Case* d_cases = nullptr;
   Result* d_out = nullptr;
   cudaMalloc(&d_cases, n * sizeof(Case));
@@ -125,7 +81,7 @@ int compare(const char* name, const std::vector<Case>& cases) {
   for (int i = 0; i < n; ++i) {
     const Result h = run_case<Model>(p, cases[i]);
     const Result& g = gpu[i];
-    if (h.state.eps_pd > cases[i].state.eps_pd) ++plastic;
+    if (h.state.eps_pd > cases[i].st.eps_pd) ++plastic;
     const double size = std::fmax(h.stress.norm(), g.stress.norm());
     const double dsig = (h.stress - g.stress).norm();
     const bool stress_ok = dsig <= 1e-5 * size + stress_floor;

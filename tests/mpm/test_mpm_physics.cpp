@@ -34,15 +34,7 @@ using test::tiny_column;
 TEST(MpmPhysics, ConsolidationReachesRhoGH) {
   // Block between two free-slip walls on a no-slip floor, stress free at t = 0; damped
   // gravity loading. Vertical stress vs rho g z (rho from the current void ratio).
-  Scene sc = small_column_scene(ModelKind::Frictional);
-  sc.size = {0.2, 0.15};
-  sc.walls[1].position = 0.2;
-  sc.bodies[0].box_max = {0.2, 0.1};
-  sc.dt = 1e-4;
-  sc.stages[0].gate.reset();
-  sc.stages[0].duration = 0.08;
-  sc.stages[1].duration = 1e-4;
-  sc.output.times.clear();
+  Scene sc = test::consolidation_block();
   const RunSummary s = run_quiet(make_setup(sc));
   ASSERT_TRUE(s.ok) << s.message;
   ASSERT_TRUE(s.consolidation.done);

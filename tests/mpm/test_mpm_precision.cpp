@@ -90,15 +90,7 @@ TEST(MpmPrecision, ColumnCollapseAgreesInMixedAndFp32) {
 // loading) holds in every precision: base stress within 3 % of rho g h, depth bins within 5 %.
 TEST(MpmPrecision, ConsolidationReachesRhoGHInEveryPrecision) {
   for (const Precision p : {Precision::FP64, Precision::Mixed, Precision::FP32}) {
-    Scene sc = small_column_scene(ModelKind::Frictional);
-    sc.size = {0.2, 0.15};
-    sc.walls[1].position = 0.2;
-    sc.bodies[0].box_max = {0.2, 0.1};
-    sc.dt = 1e-4;
-    sc.stages[0].gate.reset();
-    sc.stages[0].duration = 0.08;
-    sc.stages[1].duration = 1e-4;
-    sc.output.times.clear();
+    Scene sc = test::consolidation_block();
     sc.precision = p;
     const Result r = run_quiet(sc);
     ASSERT_TRUE(r.s.ok) << r.s.message;

@@ -1,4 +1,5 @@
-// The CI column on a 20 mm grid (200 points) with a larger step: the MPM tests' small scene.
+// Small scenes of the MPM tests: the CI column on a 20 mm grid (200 points) with a larger step,
+// and the consolidation block.
 #pragma once
 
 #include <granflow/mpm/scene.hpp>
@@ -14,6 +15,21 @@ inline Scene tiny_column(ModelKind model, ShapeKind shape = ShapeKind::Linear) {
   sc.stages[1].duration = 0.3;
   sc.output.times = {0.3};
   sc.output.series_dt = 0.01;
+  return sc;
+}
+
+// A 20 x 10 cm block between two free-slip walls on a no-slip floor, stress free at t = 0,
+// loaded by damped gravity for 0.08 s (no gate, a token second stage): the consolidation check.
+inline Scene consolidation_block(ModelKind model = ModelKind::Frictional) {
+  Scene sc = small_column_scene(model);
+  sc.size = {0.2, 0.15};
+  sc.walls[1].position = 0.2;
+  sc.bodies[0].box_max = {0.2, 0.1};
+  sc.dt = 1e-4;
+  sc.stages[0].gate.reset();
+  sc.stages[0].duration = 0.08;
+  sc.stages[1].duration = 1e-4;
+  sc.output.times.clear();
   return sc;
 }
 
