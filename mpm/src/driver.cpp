@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -245,19 +246,33 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
     runner.frame(full, true);
     return full;
   };
+  // The measures of a sample (run-out, energies: a pass over every particle) and the copy of
+  // the last good frame run on a worker thread while the next span runs (on the GPU the host
+  // work of a sample cost as long as 100 steps of the 1 mm column). The row is appended at once
+  // with its time; settle() waits for the worker before anything reads its measures, last_good
+  // or overwrites fr. Declared after fr, last_good and sum: an exception waits for it too.
+  std::future<void> pending;
+  auto settle = [&] {
+    if (pending.valid()) pending.get();
+  };
   auto sample = [&](double t, int stage) {
+    settle();
     runner.frame(fr, false, su.tracked);
-    const Measures m = measure(fr, su, mass);
-    sum.series.push_back({t, t - t_release, stage, m});
+    sum.series.push_back({t, t - t_release, stage, Measures{}});
     for (size_t k = 0; k < su.tracked.size(); ++k) {
       const long i = su.tracked[k], n = fr.n;
       const PointDiagnostics& d = fr.subset[k];
       sum.tracks.push_back({t, t - t_release, k, fr.x[i], fr.x[n + i], fr.v[i], fr.v[n + i], d.p, d.q, d.eps_pd, d.T,
                             d.eta_c, d.K_col});
     }
-    last_good = fr;
     last_good_t = t;
-    sum.final = m;
+    const size_t row = sum.series.size() - 1;
+    pending = std::async(std::launch::async, [&, row] {
+      const Measures m = measure(fr, su, mass);
+      sum.series[row].m = m;  // the main thread touches only .t of this row until settle()
+      sum.final = m;
+      last_good = fr;
+    });
   };
   auto write_frame = [&](const Frame& f, double t, const std::string& tag) {
     if (!files) return;
@@ -319,6 +334,7 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
   };
   double next_ckpt = next_checkpoint_after(t);
   auto save = [&] {
+    settle();
     Checkpoint c;
     c.scene_hash = opt.scene_hash;
     runner.download(c.particles);
@@ -373,6 +389,7 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
       const SpanResult r = runner.advance_span(span);
       step += r.steps;
       if (!r.ok) {
+        settle();
         Frame bad;
         runner.frame(bad, false);
         const long n = bad.n, p = r.particle;
@@ -428,6 +445,7 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
     if (check) sum.consolidation = check_consolidation(full, su);
     if (stage_frame) write_frame(full, t, "_" + stage_name(sc, si));
   }
+  settle();
   if (opt.progress) std::fprintf(stderr, "\n");
   const bool complete = sum.ok && !sum.interrupted;
   if (complete && (pvd.empty() || pvd.back().first != t)) write_frame(full_frame(), t, "_final");
