@@ -9,6 +9,8 @@
 #                                       fp64 and fp32, both models at 1 mm, linear shapes at 5 mm
 #   scripts/gpu_runs_series.sh flume    flume mesh series 20/10/5 (2.5) mm: the same axes
 #   scripts/gpu_runs_series.sh paperdt  the flume at the paper's dt of 1e-6 s, capped
+#   scripts/gpu_runs_series.sh final    checks, benchmarks, the 1 mm column and 5 mm flume again,
+#                                       compute-sanitizer memcheck/racecheck of the CI scenes
 # TMO (seconds) caps each run; a capped run's row has exit 124 and what it reached.
 set -uo pipefail
 part=${1:-check}
@@ -81,6 +83,25 @@ elif [ "$part" = flume ]; then
   done
   TMO=150 run flume 0.005 1e-4 cfl:0.5 fp64 frictional
   TMO=150 run flume 0.005 1e-5 fixed fp64 frictional
+elif [ "$part" = final ]; then
+  timeout 60 $B/tests/cuda/constitutive_device_host >>$log 2>&1; echo "constitutive_device_host exit $?" >>$log
+  OMP_NUM_THREADS=8 timeout 150 $B/mpm_cuda_check --short >>$log 2>&1; echo "mpm_cuda_check exit $?" >>$log
+  for sc in column flume; do
+    echo "== bench $sc pt" >>$log
+    $B/granflow-mpm $sc --backend cuda --bench 300 --warmup 20 >>$log 2>&1
+  done
+  TMO=100 run column 0.001 1e-5 fixed fp64 pt
+  TMO=100 run column 0.001 1e-5 fixed fp32 pt
+  TMO=150 run flume 0.005 1e-5 fixed fp64 pt
+  TMO=150 run flume 0.005 1e-4 cfl:0.5 fp32 pt
+  CS=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer | head -1)
+  for scene in mpm/scenes/column_collapse_ci.toml mpm/scenes/flume_ci.toml; do
+    for tool in memcheck racecheck; do
+      timeout 150 $CS --tool $tool --error-exitcode 9 $B/granflow mpm $scene --backend cuda --stop-after 0.07 \
+        --out /tmp/san --force --no-png --quiet >/tmp/san.log 2>&1
+      echo "$tool $(basename $scene): exit $? | $(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY' /tmp/san.log | head -1)" >>$log
+    done
+  done
 else
   TMO=250 run flume 0.005 1e-6 fixed fp64 pt --stop-after 0.9
   TMO=250 run flume 0.0025 1e-4 cfl:0.5 fp64 pt

@@ -63,7 +63,7 @@ inline std::string update_flags_text(std::uint32_t flags) {
   add(info::kNonFinite, "a non-finite value was produced");
   add(info::kInadmissible, "inadmissible input state (e <= 0, e >= 2.97 or T < 0)");
   add(info::kSubstepLimit, "substep budget exhausted");
-  add(info::kReturnFallback, "return map failed");
+  add(info::kReturnUnconverged, "return map unconverged (last iterate kept)");
   return s.empty() ? "flags " + std::to_string(flags) : s;
 }
 

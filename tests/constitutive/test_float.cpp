@@ -62,8 +62,8 @@ Agreement compare(const std::vector<Case>& cases) {
     if (sd.eps_pd > c.st.eps_pd) ++a.plastic;
     a.iters_d += id.substeps;
     a.iters_f += iff.substeps;
-    if (id.flags & info::kReturnFallback) ++a.fallback_d;
-    if (iff.flags & info::kReturnFallback) ++a.fallback_f;
+    if (id.flags & info::kReturnUnconverged) ++a.fallback_d;
+    if (iff.flags & info::kReturnUnconverged) ++a.fallback_f;
     if ((id.flags ^ iff.flags) & info::kErrorMask) {
       ++a.error_mismatch;
       continue;

@@ -383,7 +383,7 @@ TEST(Frictional, ReturnMapEndsOnTheSurfaceAndConvergesToTheRateSolution) {
     for (int k = 0; k < steps; ++k) {
       const auto inf = implicit ? frictional_return_map<SMC>(m, s, d) : frictional_increment<SMC>(mm, s, d);
       EXPECT_TRUE(inf.ok());
-      EXPECT_FALSE(inf.flags & info::kReturnFallback);
+      EXPECT_FALSE(inf.flags & info::kReturnUnconverged);
       if (implicit) EXPECT_NEAR(yield_function<SMC>(m, s.sigma, s.eps_pd, s.e), 0.0, 1e-8);
     }
     return s.sigma;
@@ -441,7 +441,7 @@ TEST(Frictional, ReturnMapHandlesLargeIncrementsAtLowPressure) {
         d.diagonal().setConstant(vol / 3);
         const auto inf = frictional_return_map<SMC>(m, s, d);
         ASSERT_TRUE(inf.ok());
-        EXPECT_FALSE(inf.flags & info::kReturnFallback) << p0 << " " << g << " " << vol;
+        EXPECT_FALSE(inf.flags & info::kReturnUnconverged) << p0 << " " << g << " " << vol;
         ASSERT_TRUE(all_finite(s.sigma));
         if (!(inf.flags & info::kTensionCutoff)) {
           EXPECT_LE(yield_function<SMC>(m, s.sigma, s.eps_pd, s.e), 1e-8);
@@ -516,7 +516,7 @@ TEST(Frictional, ReturnMapCostIsBoundedNearZeroPressure) {
       d(1, 1) = g * (u(rng) - 0.5);
       const auto inf = frictional_return_map<SMC>(m, s, d);
       ASSERT_TRUE(inf.ok());
-      ASSERT_FALSE(inf.flags & info::kReturnFallback) << "case " << k << ", phi_c " << phi;
+      ASSERT_FALSE(inf.flags & info::kReturnUnconverged) << "case " << k << ", phi_c " << phi;
       ASSERT_TRUE(all_finite(s.sigma));
       if (!(inf.flags & info::kTensionCutoff)) {
         ASSERT_GE(mean_pressure(s.sigma), 0.0);

@@ -77,7 +77,7 @@ int compare(const char* name, const std::vector<Case>& cases) {
   const double stress_floor = 5 * p.f.p_min;
   double worst_rel = 0, worst_abs_small = 0;
   int plastic = 0, flagged = 0, flagged_differ = 0, differ = 0, cutoff_mismatch = 0, large = 0;
-  const unsigned flagged_bits = info::kSubstepLimit | info::kReturnFallback;
+  const unsigned flagged_bits = info::kSubstepLimit | info::kReturnUnconverged;
   for (int i = 0; i < n; ++i) {
     const Result h = run_case<Model>(p, cases[i]);
     const Result& g = gpu[i];

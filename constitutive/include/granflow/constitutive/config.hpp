@@ -42,7 +42,7 @@ inline constexpr std::uint32_t kTensionCutoff = 1u << 0;   // p_f fell to the cu
 inline constexpr std::uint32_t kPressureFloor = 1u << 1;   // moduli evaluated at p_min
 inline constexpr std::uint32_t kVsClamped = 1u << 2;       // V_s clamped below V_sd in kinetic functions
 inline constexpr std::uint32_t kSubstepLimit = 1u << 3;    // substep budget exhausted (result less accurate)
-inline constexpr std::uint32_t kReturnFallback = 1u << 6;  // return map failed; substepping used
+inline constexpr std::uint32_t kReturnUnconverged = 1u << 6;  // return map unconverged; last iterate kept
 inline constexpr std::uint32_t kNonFinite = 1u << 4;       // a non-finite value was produced: state not updated
 inline constexpr std::uint32_t kInadmissible = 1u << 5;    // inadmissible input state (e <= 0, e >= 2.97, T < 0)
 inline constexpr std::uint32_t kErrorMask = kNonFinite | kInadmissible;
