@@ -11,6 +11,8 @@
 #   scripts/gpu_runs_series.sh paperdt  the flume at the paper's dt of 1e-6 s, capped
 #   scripts/gpu_runs_series.sh final    checks, benchmarks, the 1 mm column and 5 mm flume again,
 #                                       compute-sanitizer memcheck/racecheck of the CI scenes
+#                                       (NO_SANITIZE=1: without; FINAL_EXTRA='--sort 32 ...': the
+#                                       1 mm column again with those options)
 # TMO (seconds) caps each run; a capped run's row has exit 124 and what it reached.
 set -uo pipefail
 part=${1:-check}
@@ -94,14 +96,20 @@ elif [ "$part" = final ]; then
   TMO=100 run column 0.001 1e-5 fixed fp32 pt
   TMO=150 run flume 0.005 1e-5 fixed fp64 pt
   TMO=150 run flume 0.005 1e-4 cfl:0.5 fp32 pt
-  CS=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer | head -1)
-  for scene in mpm/scenes/column_collapse_ci.toml mpm/scenes/flume_ci.toml; do
-    for tool in memcheck racecheck; do
-      timeout 150 $CS --tool $tool --error-exitcode 9 $B/granflow mpm $scene --backend cuda --stop-after 0.07 \
-        --out /tmp/san --force --no-png --quiet >/tmp/san.log 2>&1
-      echo "$tool $(basename $scene): exit $? | $(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY' /tmp/san.log | head -1)" >>$log
+  if [ -n "${FINAL_EXTRA:-}" ]; then  # further runs, e.g. a CUDA option against the default
+    TMO=100 run column 0.001 1e-5 fixed fp64 pt $FINAL_EXTRA
+    TMO=100 run column 0.001 1e-5 fixed fp32 pt $FINAL_EXTRA
+  fi
+  if [ -z "${NO_SANITIZE:-}" ]; then
+    CS=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer | head -1)
+    for scene in mpm/scenes/column_collapse_ci.toml mpm/scenes/flume_ci.toml; do
+      for tool in memcheck racecheck; do
+        timeout 150 $CS --tool $tool --error-exitcode 9 $B/granflow mpm $scene --backend cuda --stop-after 0.07 \
+          --out /tmp/san --force --no-png --quiet >/tmp/san.log 2>&1
+        echo "$tool $(basename $scene): exit $? | $(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY' /tmp/san.log | head -1)" >>$log
+      done
     done
-  done
+  fi
 else
   TMO=250 run flume 0.005 1e-6 fixed fp64 pt --stop-after 0.9
   TMO=250 run flume 0.0025 1e-4 cfl:0.5 fp64 pt

@@ -495,7 +495,8 @@ TEST(Frictional, ReturnMapCostIsBoundedNearZeroPressure) {
   // without the explicit fallback, ends on the yield surface or at the cut-off, and costs a
   // bounded number of residual evaluations. Newton steps across the kink at p_min used to creep
   // (step halving every iteration): up to 1,084 evaluations, 46 fallbacks in 400,000 such cases;
-  // a GPU warp waits for its slowest point.
+  // a GPU warp waits for its slowest point. With the yield residual in ratio form (q / p - ...)
+  // the mean was 3.8 evaluations; in the p-form 2.9.
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> u(0, 1);
   long evaluations = 0, cases = 0;
@@ -528,7 +529,7 @@ TEST(Frictional, ReturnMapCostIsBoundedNearZeroPressure) {
     }
   }
   EXPECT_LE(worst, 80);
-  EXPECT_LT(evaluations, 5 * cases);
+  EXPECT_LT(evaluations, 3.3 * cases);
 }
 
 TEST(Frictional, UpdateWithSpinIsSecondOrderInTheStep) {
