@@ -608,12 +608,15 @@ GF_HDI bool pressure_for_multiplier(const Residual& res, S dL, S& p, typename Re
       if (side == -1) r_hi *= S(0.5);
       side = -1;
     }
+    // Round-off: a step below a few ulps of p (R1 is resolved only to its rounding, which in
+    // float can exceed the tolerance) ends the solve.
+    const bool at_round_off = std::fabs(next - p) <= S(8) * std::numeric_limits<S>::epsilon() * (std::fabs(p) + p_min);
     if (!(next > lo && next < hi)) {
-      if (!(hi < kInf)) return false;
+      if (!(hi < kInf)) return at_round_off;
       next = lo > -kInf && r_hi > r_lo ? lo - r_lo * (hi - lo) / (r_hi - r_lo) : S(0.5) * (p_min + hi);
       if (!(next > lo && next < hi)) next = S(0.5) * (lo + hi);
     }
-    if (next == p) return true;  // round-off: the bracket is closed
+    if (next == p || at_round_off) return true;
     p = next;
   }
   return false;
