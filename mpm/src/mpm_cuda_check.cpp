@@ -56,12 +56,14 @@ int main(int argc, char** argv) {
                         {ModelKind::Frictional, ShapeKind::Linear, false, ""},
                         {ModelKind::Frictional, ShapeKind::QuadraticBSpline, false, ""},
                         {ModelKind::PhaseTransition, ShapeKind::Linear, true, ""},
+                        {ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, false, "sort 0, p2g atomic"},
                         {ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, false, "sort 1, p2g warp, graphs off"},
                         {ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, false, "sort 32, p2g tile, graphs off"},
                         {ModelKind::Frictional, ShapeKind::QuadraticBSpline, false, "sort 7, g2p-regcap on, graph-steps 4"}};
   const bool short_run = argc > 1 && std::strcmp(argv[1], "--short") == 0;
   for (const Case& c : cases) {
     CudaOptions co;
+    if (std::strstr(c.cuda, "sort 0,")) co.sort_every = 0;
     if (std::strstr(c.cuda, "sort 1,")) co.sort_every = 1;
     if (std::strstr(c.cuda, "sort 32,")) co.sort_every = 32;
     if (std::strstr(c.cuda, "p2g tile")) co.p2g = CudaOptions::P2G::Tile;
