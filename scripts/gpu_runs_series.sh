@@ -12,7 +12,8 @@
 #   scripts/gpu_runs_series.sh final    checks, benchmarks, the 1 mm column and 5 mm flume again,
 #                                       compute-sanitizer memcheck/racecheck of the CI scenes
 #                                       (NO_SANITIZE=1: without; FINAL_EXTRA='--sort 32 ...': the
-#                                       1 mm column again with those options)
+#                                       1 mm column again with those options; GRANFLOW_MPM_CUDA_3D=ON:
+#                                       also the 3D slab benchmark)
 # TMO (seconds) caps each run; a capped run's row has exit 124 and what it reached.
 set -uo pipefail
 part=${1:-check}
@@ -99,6 +100,13 @@ elif [ "$part" = final ]; then
   if [ -n "${FINAL_EXTRA:-}" ]; then  # further runs, e.g. a CUDA option against the default
     TMO=100 run column 0.001 1e-5 fixed fp64 pt $FINAL_EXTRA
     TMO=100 run column 0.001 1e-5 fixed fp32 pt $FINAL_EXTRA
+  fi
+  if [ "${GRANFLOW_MPM_CUDA_3D:-OFF}" = ON ]; then  # the 3D slab, 8e6 points (issue 7's scale target)
+    for prec in fp32 fp64; do
+      echo "== bench 3D slab $prec" >>$log
+      timeout 200 $B/granflow bench mpm mpm/scenes/column_collapse_3d.toml --steps 30 --warmup 5 --split 20 \
+        --backend cuda --precision $prec >>$log 2>&1
+    done
   fi
   if [ -z "${NO_SANITIZE:-}" ]; then
     CS=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer | head -1)
