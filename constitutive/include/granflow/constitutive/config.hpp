@@ -76,10 +76,8 @@ struct Tolerances {
 
   // q / p below which a stress counts as isotropic (its deviatoric direction is round-off).
   static constexpr S kIsotropic = detail::tolerance_for<S>(1e-10, 64 * eps);
-  // Return map: converged relative volumetric residual |R1|, and |R1| accepted when Newton
-  // stagnates (no step lowers the residual norm: round-off level).
+  // Return map: converged relative volumetric residual |R1|.
   static constexpr S kVolResidual = detail::tolerance_for<S>(1e-12, 32 * eps);
-  static constexpr S kVolStall = detail::tolerance_for<S>(1e-9, 1024 * eps);
   // Substepping: smallest pseudo-time substep that error control may still reject.
   static constexpr S kMinSubstep = detail::tolerance_for<S>(1e-9, 64 * eps);
   // Defaults of FrictionalParams::ftol (yield surface) and ::stol (relative local error).
