@@ -90,12 +90,13 @@ class SignalGuard {
 
 // The CUDA backend's options as given on the command line (name -> value, unset ones empty).
 struct CudaFlags {
-  std::string graphs, graph_steps, sort, p2g, g2p_block, g2p_regcap;
+  std::string graphs, graph_steps, sort, p2g, g2p_block, g2p_regcap, g2p_split;
   mpm::CudaOptions options() const {
     mpm::CudaOptions o;
     const std::pair<const char*, const std::string*> all[] = {{"graphs", &graphs}, {"graph-steps", &graph_steps},
                                                               {"sort", &sort},     {"p2g", &p2g},
-                                                              {"g2p-block", &g2p_block}, {"g2p-regcap", &g2p_regcap}};
+                                                              {"g2p-block", &g2p_block}, {"g2p-regcap", &g2p_regcap},
+                                                              {"g2p-split", &g2p_split}};
     for (const auto& [name, value] : all)
       if (!value->empty() && !mpm::set_cuda_option(o, name, *value))
         throw io::InputError(std::string("--") + name + ": invalid value '" + *value + "'");
@@ -104,10 +105,12 @@ struct CudaFlags {
   void add(CLI::App* cmd) {
     cmd->add_option("--graphs", graphs, "CUDA: replay captured chunks of steps as graphs (on|off; default on)");
     cmd->add_option("--graph-steps", graph_steps, "CUDA: longest captured chunk in steps (default 32)");
-    cmd->add_option("--sort", sort, "CUDA: reorder particles by cell every N steps (0: never; default 0)");
-    cmd->add_option("--p2g", p2g, "CUDA: P2G scatter atomic|warp|tile (default atomic)");
+    cmd->add_option("--sort", sort, "CUDA: reorder particles by cell every N steps (0: never; default 32)");
+    cmd->add_option("--p2g", p2g, "CUDA: P2G scatter atomic|warp|tile (default warp)");
     cmd->add_option("--g2p-block", g2p_block, "CUDA: threads per block of G2P + constitutive (default 128)");
     cmd->add_option("--g2p-regcap", g2p_regcap, "CUDA: G2P + constitutive with at most 168 registers (on|off)");
+    cmd->add_option("--g2p-split", g2p_split,
+                    "CUDA: G2P in two passes, elastic updates then the deferred plastic returns (auto|on|off; default auto: from 2 waves of the fused kernel)");
   }
 };
 
@@ -235,6 +238,11 @@ void run_mpm(const MpmOptions& o) {
                 "V_s clamped %.3g%%, separated %.3g%%\n",
                 u, s.stats.substeps / u, 100 * s.stats.substep_limit / u, 100 * s.stats.tension_cutoff / u,
                 100 * s.stats.vs_clamped / u, 100 * s.stats.separated / u);
+    if (s.stats.warps > 0)
+      std::printf("substeps of one update: largest %ld; mean over 32-point groups (a GPU warp) of their largest "
+                  "%.2f; mean over steps of the step's largest %.2f\n",
+                  s.stats.max_substeps, double(s.stats.warp_max_substeps) / double(s.stats.warps),
+                  double(s.stats.step_max_substeps) / double(std::max(1L, s.stats.steps)));
   }
   std::printf("final run-out: %.4f m\nfinal height: %.4f m\nmax speed: %.4g m/s\n", s.final.runout, s.final.height,
               s.final.max_speed);

@@ -9,6 +9,11 @@
 #                                       fp64 and fp32, both models at 1 mm, linear shapes at 5 mm
 #   scripts/gpu_runs_series.sh flume    flume mesh series 20/10/5 (2.5) mm: the same axes
 #   scripts/gpu_runs_series.sh paperdt  the flume at the paper's dt of 1e-6 s, capped
+#   scripts/gpu_runs_series.sh split    checks; benchmarks of the split G2P against the fused one
+#                                       (and with the first pass at 128 registers); the 1 mm column
+#                                       and 5 mm flume with the split
+#   scripts/gpu_runs_series.sh 3d       the 3D slab (8e6 points) benchmark with the CUDA options
+#                                       (GRANFLOW_MPM_CUDA_3D=ON for the build)
 #   scripts/gpu_runs_series.sh final    checks, benchmarks, the 1 mm column and 5 mm flume again,
 #                                       compute-sanitizer memcheck/racecheck of the CI scenes
 #                                       (NO_SANITIZE=1: without; FINAL_EXTRA='--sort 32 ...': the
@@ -86,6 +91,30 @@ elif [ "$part" = flume ]; then
   done
   TMO=150 run flume 0.005 1e-4 cfl:0.5 fp64 frictional
   TMO=150 run flume 0.005 1e-5 fixed fp64 frictional
+elif [ "$part" = split ]; then
+  timeout 60 $B/tests/cuda/constitutive_device_host >>$log 2>&1; echo "constitutive_device_host exit $?" >>$log
+  OMP_NUM_THREADS=8 timeout 150 $B/mpm_cuda_check --short >>$log 2>&1; echo "mpm_cuda_check exit $?" >>$log
+  for sc in column flume; do
+    for opts in "--g2p-split off" "--g2p-split on" "--g2p-split on --g2p-regcap on"; do
+      echo "== bench $sc pt $opts" >>$log
+      $B/granflow-mpm $sc --backend cuda --bench 300 --warmup 20 $opts >>$log 2>&1
+    done
+  done
+  TMO=100 run column 0.001 1e-5 fixed fp64 pt
+  TMO=100 run column 0.001 1e-5 fixed fp64 pt --g2p-regcap on
+  TMO=100 run column 0.001 1e-5 fixed fp32 pt
+  TMO=150 run flume 0.005 1e-5 fixed fp64 pt
+  TMO=150 run flume 0.005 1e-4 cfl:0.5 fp64 pt
+  TMO=150 run flume 0.005 1e-4 cfl:0.5 fp32 pt
+elif [ "$part" = 3d ]; then
+  for prec in fp32 fp64; do
+    for opts in "" "--g2p-split on" "--g2p-split on --g2p-regcap on" "--p2g tile" "--sort 0 --p2g atomic"; do
+      [ $prec = fp64 ] && [ -n "$opts" ] && [ "$opts" != "--g2p-split on" ] && continue
+      echo "== bench 3D slab $prec $opts" >>$log
+      timeout 200 $B/granflow bench mpm mpm/scenes/column_collapse_3d.toml --steps 30 --warmup 5 --split 20 \
+        --backend cuda --precision $prec $opts >>$log 2>&1
+    done
+  done
 elif [ "$part" = final ]; then
   timeout 60 $B/tests/cuda/constitutive_device_host >>$log 2>&1; echo "constitutive_device_host exit $?" >>$log
   OMP_NUM_THREADS=8 timeout 150 $B/mpm_cuda_check --short >>$log 2>&1; echo "mpm_cuda_check exit $?" >>$log
@@ -97,6 +126,8 @@ elif [ "$part" = final ]; then
   TMO=100 run column 0.001 1e-5 fixed fp32 pt
   TMO=150 run flume 0.005 1e-5 fixed fp64 pt
   TMO=150 run flume 0.005 1e-4 cfl:0.5 fp32 pt
+  TMO=150 run flume 0.005 1e-4 cfl:0.5 fp64 pt
+  TMO=100 run flume 0.005 1e-6 fixed fp64 pt --stop-after 0.4
   if [ -n "${FINAL_EXTRA:-}" ]; then  # further runs, e.g. a CUDA option against the default
     TMO=100 run column 0.001 1e-5 fixed fp64 pt $FINAL_EXTRA
     TMO=100 run column 0.001 1e-5 fixed fp32 pt $FINAL_EXTRA
@@ -110,11 +141,12 @@ elif [ "$part" = final ]; then
   fi
   if [ -z "${NO_SANITIZE:-}" ]; then
     CS=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer | head -1)
-    for scene in mpm/scenes/column_collapse_ci.toml mpm/scenes/flume_ci.toml; do
+    for run in "column_collapse_ci.toml" "flume_ci.toml" "column_collapse_ci.toml --g2p-split on"; do
+      set -- $run
       for tool in memcheck racecheck; do
-        timeout 150 $CS --tool $tool --error-exitcode 9 $B/granflow mpm $scene --backend cuda --stop-after 0.07 \
+        timeout 150 $CS --tool $tool --error-exitcode 9 $B/granflow mpm mpm/scenes/$run --backend cuda --stop-after 0.07 \
           --out /tmp/san --force --no-png --quiet >/tmp/san.log 2>&1
-        echo "$tool $(basename $scene): exit $? | $(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY' /tmp/san.log | head -1)" >>$log
+        echo "$tool $run: exit $? | $(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY' /tmp/san.log | head -1)" >>$log
       done
     done
   fi

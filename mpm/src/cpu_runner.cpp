@@ -119,6 +119,20 @@ class CpuRunner final : public Runner {
     stats_.tension_cutoff += cut;
     stats_.vs_clamped += clamp;
     stats_.separated += sep;
+    long wsum = 0, most = 0;
+    const long nw = (n_ + 31) / 32;
+#pragma omp parallel for reduction(+ : wsum) reduction(max : most)
+    for (long w = 0; w < nw; ++w) {
+      long m = 0;
+      for (long p = 32 * w; p < std::min(n_, 32 * w + 32); ++p) m = std::max(m, static_cast<long>(inf[p] >> 16));
+      wsum += m;
+      most = std::max(most, m);
+    }
+    stats_.warp_max_substeps += wsum;
+    stats_.warps += nw;
+    stats_.max_substeps = std::max(stats_.max_substeps, most);
+    stats_.step_max_substeps += most;
+    ++stats_.steps;
     StepResult r;
     if (any) {
       for (long p = 0; p < n_; ++p)

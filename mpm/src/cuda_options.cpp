@@ -36,6 +36,13 @@ bool set_cuda_option(CudaOptions& o, const std::string& name, const std::string&
   if (name == "sort") return count(value, 0, 1 << 30, o.sort_every);
   if (name == "g2p-block") return count(value, 32, 256, o.g2p_block) && o.g2p_block % 32 == 0;
   if (name == "g2p-regcap") return on_off(value, o.g2p_reg_cap);
+  if (name == "g2p-split") {
+    bool on = false;
+    if (value == "auto") o.g2p_split = CudaOptions::Split::Auto;
+    else if (on_off(value, on)) o.g2p_split = on ? CudaOptions::Split::On : CudaOptions::Split::Off;
+    else return false;
+    return true;
+  }
   if (name == "p2g") {
     if (value == "atomic") o.p2g = CudaOptions::P2G::Atomic;
     else if (value == "warp") o.p2g = CudaOptions::P2G::Warp;

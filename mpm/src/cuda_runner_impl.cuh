@@ -49,8 +49,21 @@ void check(cudaError_t e, const char* what) {
 
 constexpr unsigned kFullMask = 0xffffffffu;
 constexpr int kP2GBlock = 128;
+// Blocks of P2G per SM the compiler must fit: float storage at most 96 registers (20 warps/SM).
+// 3D slab, fp32 (H200): 3,545 instead of 3,789 us per step at 105 registers; 80 registers
+// (24 warps/SM, 104 B of spills) 3,691 us. Double: no cap (102 registers in 2D, 153 in 3D).
+template <class S>
+constexpr int p2g_min_blocks() { return sizeof(S) == 4 ? 5 : 1; }
 constexpr int kGridBlock = 256;
 constexpr int kAuxBlock = 256;
+constexpr int kSplitBlock = 128;  // first pass of the split G2P
+// Blocks of the split's first pass per SM the compiler must fit. An fp32 update: 6 (at most 80
+// registers, 24 warps/SM, 52-76 B of spills): 3D slab (H200) 3,787 us per step for G2P against
+// 4,098 at 96 registers and 4,483 at 118. fp64: 3 (156-168 registers, 12 warps/SM); with
+// --g2p-regcap 4 (128 registers, 136 B of spills; no faster on the 1 mm column).
+template <class MS>
+constexpr int elastic_min_blocks(bool cap) { return sizeof(MS) == 4 ? 6 : (cap ? 4 : 3); }
+
 // Shared-memory tile of P2G: at most this many nodes (a block's stencil box is about 60).
 template <int D>
 constexpr int tile_nodes() { return D == 2 ? 512 : 384; }
@@ -68,6 +81,7 @@ struct SpanControl {
   long long steps;         // steps taken (a failed one included)
   unsigned long long bad;  // pack_bad of the first bad particle, kNoBadParticle: none
   unsigned long long lim;  // dt_limit_bits of the smallest stable step of the current step
+  unsigned long long deferred;  // split G2P: points of the span's steps that needed the plastic pass
   unsigned int blocks_done;
 };
 
@@ -122,7 +136,7 @@ __device__ __forceinline__ void scatter_warp(const P2GParticle<D, S>& q, const i
 // Contribution order: c[0] mass, c[1..D] momentum, c[1+D..2D] force, which are the grid
 // fields 0..2D of GridLayout.
 template <int D, class S, class Model, class Shape, int kMode>
-__global__ void __launch_bounds__(kP2GBlock) p2g_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp,
+__global__ void __launch_bounds__(kP2GBlock, p2g_min_blocks<S>()) p2g_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp,
                                                        const SpanControl* ctl, long* bin_keys) {
   static_assert(GridLayout<D>::M == 0 && GridLayout<D>::P == 1 && GridLayout<D>::F == 1 + D, "field order");
   constexpr int NC = 1 + 2 * D;
@@ -216,23 +230,28 @@ __global__ void grid_kernel(GridView<S> gv, StepParams<D, S, Model> sp0, const S
 
 // ---- G2P and the end of a step -----------------------------------------------------------
 
-// Called by every thread of every block of a step's final kernel (after its particle work).
-// Reduces the stable step, and the last block to finish records the step and plans the next.
-__device__ __forceinline__ void finish_step(SpanControl* ctl, double lim, int want_lim) {
-  if (want_lim) {
-    __shared__ unsigned long long s_min[32];
-    unsigned long long b = dt_limit_bits(lim);
-    for (int o = 16; o > 0; o >>= 1) {
-      const unsigned long long other = __shfl_down_sync(kFullMask, b, o);
-      b = other < b ? other : b;
-    }
-    if ((threadIdx.x & 31) == 0) s_min[threadIdx.x >> 5] = b;
-    __syncthreads();
-    if (threadIdx.x == 0) {
-      for (unsigned w = 1; w < (blockDim.x + 31) / 32; ++w) b = s_min[w] < b ? s_min[w] : b;
-      atomicMin(&ctl->lim, b);
-    }
+// Block min-reduction of the stable step into ctl->lim (every thread of the block calls it).
+__device__ __forceinline__ void reduce_dt_limit(SpanControl* ctl, double lim) {
+  __shared__ unsigned long long s_min[32];
+  unsigned long long b = dt_limit_bits(lim);
+  for (int o = 16; o > 0; o >>= 1) {
+    const unsigned long long other = __shfl_down_sync(kFullMask, b, o);
+    b = other < b ? other : b;
   }
+  if ((threadIdx.x & 31) == 0) s_min[threadIdx.x >> 5] = b;
+  __syncthreads();
+  if (threadIdx.x == 0) {
+    for (unsigned w = 1; w < (blockDim.x + 31) / 32; ++w) b = s_min[w] < b ? s_min[w] : b;
+    atomicMin(&ctl->lim, b);
+  }
+}
+
+// Called by every thread of every block of a step's final kernel (after its particle work).
+// Reduces the stable step, and the last block to finish records the step and plans the next
+// (and clears `counter`, the deferred-point count the kernel's blocks read at their start).
+__device__ __forceinline__ void finish_step(SpanControl* ctl, double lim, int want_lim,
+                                            unsigned* counter = nullptr) {
+  if (want_lim) reduce_dt_limit(ctl, lim);
   __threadfence();
   __syncthreads();
   __shared__ bool s_last;
@@ -257,6 +276,10 @@ __device__ __forceinline__ void finish_step(SpanControl* ctl, double lim, int wa
   }
   c.lim = dt_limit_bits(1e300);
   c.blocks_done = 0;
+  if (counter) {
+    c.deferred += *counter;
+    *counter = 0;
+  }
 }
 
 template <int D, class S, class Model, class Shape, int kMaxThreads, int kMinBlocks>
@@ -272,6 +295,56 @@ __global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
     if (st) atomicMin(&ctl->bad, pack_bad(ids[p], st));
   }
   finish_step(ctl, double(lim), sp.want_dt_limit);
+}
+
+// G2P split in two passes (CudaOptions::g2p_split). The first does the kinematics and the
+// elastic part of every update (UpdatePart::ElasticOnly: half the registers of the full update)
+// and lists the points whose step is plastic; the second runs the full update of the listed
+// points only, packed into warps, so that elastic points wait for no return map and a warp's
+// returns are of points that all need one. Results equal the fused kernel's bit for bit.
+template <int D, class S, class Model, class Shape, int kMinBlocks>
+__global__ void __launch_bounds__(kSplitBlock, kMinBlocks)
+    g2p_elastic_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp0, SpanControl* ctl,
+                       const std::uint32_t* ids, std::uint32_t* upd_info, std::uint32_t* deferred,
+                       unsigned* n_deferred) {
+  if (!ctl->active) return;
+  const StepParams<D, S, Model> sp = with_span(sp0, ctl);
+  const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  S lim = S(1e300);
+  bool defer = false;
+  if (p < pv.n) {
+    const std::uint32_t st =
+        g2p_particle<D, S, Model, Shape, UpdatePart::ElasticOnly>(pv, gv, p, sp, &lim, &upd_info[p]);
+    defer = st == kDeferredPoint;
+    if (st && !defer) atomicMin(&ctl->bad, pack_bad(ids[p], st));
+  }
+  // one atomic per warp for its deferred points
+  const unsigned mask = __ballot_sync(kFullMask, defer);
+  if (mask) {
+    const int lane = threadIdx.x & 31;
+    const int leader = __ffs(mask) - 1;
+    unsigned base = 0;
+    if (lane == leader) base = atomicAdd(n_deferred, static_cast<unsigned>(__popc(mask)));
+    base = __shfl_sync(kFullMask, base, leader);
+    if (defer) deferred[base + __popc(mask & ((1u << lane) - 1u))] = static_cast<std::uint32_t>(p);
+  }
+  if (sp.want_dt_limit) reduce_dt_limit(ctl, double(lim));
+}
+
+template <int D, class S, class Model, int kMaxThreads, int kMinBlocks>
+__global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
+    g2p_plastic_kernel(ParticleView<S> pv, StepParams<D, S, Model> sp0, SpanControl* ctl, const std::uint32_t* ids,
+                       std::uint32_t* upd_info, const std::uint32_t* deferred, unsigned* n_deferred) {
+  if (!ctl->active) return;
+  const StepParams<D, S, Model> sp = with_span(sp0, ctl);
+  const long i = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  S lim = S(1e300);
+  if (i < static_cast<long>(*n_deferred)) {
+    const long p = deferred[i];
+    const std::uint32_t st = constitutive_particle<D, S, Model>(pv, p, sp, S(NAN), &lim, &upd_info[p]);
+    if (st) atomicMin(&ctl->bad, pack_bad(ids[p], st));
+  }
+  finish_step(ctl, double(lim), sp.want_dt_limit, n_deferred);
 }
 
 // Split G2P for volumetric averaging: kinematics and bin sums, then the constitutive update.
@@ -402,6 +475,8 @@ class CudaRunner final : public Runner {
   using G = GridLayout<D>;
   using Lay = ParticleLayout<D, Model::kCollisional>;
   static constexpr bool kColl = Model::kCollisional;
+  static constexpr int kElastic = elastic_min_blocks<typename Model::Scalar>(false);
+  static constexpr int kElasticCap = elastic_min_blocks<typename Model::Scalar>(true);
 
  public:
   CudaRunner(const SceneSetup& su, const CudaOptions& opt)
@@ -426,6 +501,11 @@ class CudaRunner final : public Runner {
     ids_ = device_alloc<std::uint32_t>(n_);
     ids_alt_ = device_alloc<std::uint32_t>(n_);
     inv_ = device_alloc<std::uint32_t>(n_);
+    if (!sp_.vol_avg && use_split()) {
+      deferred_ = device_alloc<std::uint32_t>(n_);
+      n_deferred_ = device_alloc<unsigned>(1);
+      check(cudaMemset(n_deferred_, 0, sizeof(unsigned)), "clear deferred count");
+    }
     if (sp_.vol_avg) {
       keys_ = device_alloc<long>(n_);
       bins_ = device_alloc<S>(2 * static_cast<size_t>(nn));
@@ -461,7 +541,8 @@ class CudaRunner final : public Runner {
                     static_cast<void*>(status_), static_cast<void*>(info_), static_cast<void*>(ids_),
                     static_cast<void*>(ids_alt_), static_cast<void*>(inv_), static_cast<void*>(keys_),
                     static_cast<void*>(bins_), static_cast<void*>(sort_tmp_), static_cast<void*>(ctl_),
-                    static_cast<void*>(sub_ids_), static_cast<void*>(sub_out_)})
+                    static_cast<void*>(sub_ids_), static_cast<void*>(sub_out_), static_cast<void*>(deferred_),
+                    static_cast<void*>(n_deferred_)})
       cudaFree(p);
     for (auto* a : sort_buf_) cudaFree(a);
     for (auto* m : masks_) cudaFree(m);
@@ -521,6 +602,7 @@ class CudaRunner final : public Runner {
     const SpanControl& o = *ctl_out_;
     times_.device += 1e-3 * ms;
     times_.span_steps += o.steps;
+    times_.deferred += static_cast<long>(o.deferred);
     SpanResult r;
     r.steps = o.steps;
     r.t = o.t;
@@ -606,6 +688,12 @@ class CudaRunner final : public Runner {
   }
   std::string config() const override {
     std::string s = "CUDA options: " + describe(opt_) + "\n";
+    if (opt_.g2p_split == CudaOptions::Split::Auto && !sp_.vol_avg) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "  G2P: %s (the fused kernel would run %.2f waves; split from 2)\n",
+                    split() ? "split" : "fused", fused_waves_);
+      s += buf;
+    }
     const char* p2g_name = opt_.p2g == CudaOptions::P2G::Atomic ? "P2G (atomic)"
                            : opt_.p2g == CudaOptions::P2G::Warp ? "P2G (warp)"
                                                                 : "P2G (tile)";
@@ -616,7 +704,14 @@ class CudaRunner final : public Runner {
     else
       s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GTile>, kP2GBlock);
     s += kernel_info("grid update", grid_kernel<D, S, Model, kBoundary>, kGridBlock);
-    if (!sp_.vol_avg) {
+    if (split()) {
+      if (opt_.g2p_reg_cap)
+        s += kernel_info("G2P + elastic part", g2p_elastic_kernel<D, S, Model, Shape, kElasticCap>, kSplitBlock);
+      else
+        s += kernel_info("G2P + elastic part", g2p_elastic_kernel<D, S, Model, Shape, kElastic>, kSplitBlock);
+      s += kernel_info("plastic return of the deferred points", g2p_plastic_kernel<D, S, Model, 256, 1>,
+                       opt_.g2p_block);
+    } else if (!sp_.vol_avg) {
       if (opt_.g2p_reg_cap)
         s += kernel_info("G2P + constitutive", g2p_kernel<D, S, Model, Shape, 128, 3>, opt_.g2p_block);
       else
@@ -637,6 +732,24 @@ class CudaRunner final : public Runner {
   enum { kP2G0, kGrid0, kG2P0, kG2P1, kSort0, kSort1, kSpan0, kSpan1, kNumEvents };
 
   ParticleView<S> part_view() const { return ParticleView<S>{part_, n_}; }
+  bool split() const { return deferred_ != nullptr; }
+
+  // Split G2P: as asked, or (auto) from two waves of the fused kernel up, where the step is
+  // throughput-bound rather than bound by one point's latency.
+  bool use_split() {
+    if (opt_.g2p_split != CudaOptions::Split::Auto) return opt_.g2p_split == CudaOptions::Split::On;
+    int dev = 0, sms = 0, per_sm = 0;
+    check(cudaGetDevice(&dev), "cudaGetDevice");
+    check(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev), "SM count");
+    if (opt_.g2p_reg_cap)
+      check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, g2p_kernel<D, S, Model, Shape, 128, 3>,
+                                                          opt_.g2p_block, 0), "occupancy");
+    else
+      check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, g2p_kernel<D, S, Model, Shape, 256, 1>,
+                                                          opt_.g2p_block, 0), "occupancy");
+    fused_waves_ = double(n_) / (double(sms) * std::max(1, per_sm) * opt_.g2p_block);
+    return fused_waves_ >= 2.0;
+  }
 
   // Loads the step kernels now (lazy module loading would otherwise load them during the
   // first graph capture, which older drivers refuse).
@@ -650,7 +763,10 @@ class CudaRunner final : public Runner {
                        reinterpret_cast<const void*>(g2p_kernel<D, S, Model, Shape, 128, 3>),
                        reinterpret_cast<const void*>(g2p_kinematics_kernel<D, S, Model, Shape>),
                        reinterpret_cast<const void*>(constitutive_kernel<D, S, Model, 256, 1>),
-                       reinterpret_cast<const void*>(constitutive_kernel<D, S, Model, 128, 3>)};
+                       reinterpret_cast<const void*>(constitutive_kernel<D, S, Model, 128, 3>),
+                       reinterpret_cast<const void*>(g2p_elastic_kernel<D, S, Model, Shape, kElastic>),
+                       reinterpret_cast<const void*>(g2p_elastic_kernel<D, S, Model, Shape, kElasticCap>),
+                       reinterpret_cast<const void*>(g2p_plastic_kernel<D, S, Model, 256, 1>)};
     for (const void* f : k) check(cudaFuncGetAttributes(&a, f), "load kernels");
   }
 
@@ -695,7 +811,17 @@ class CudaRunner final : public Runner {
     if (timed) cudaEventRecord(ev_[kGrid0], stream_);
     grid_kernel<D, S, Model, kBoundary><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
     if (timed) cudaEventRecord(ev_[kG2P0], stream_);
-    if (!sp_.vol_avg) {
+    if (split()) {
+      const unsigned eb = blocks_for(n_, kSplitBlock);
+      if (opt_.g2p_reg_cap)
+        g2p_elastic_kernel<D, S, Model, Shape, kElasticCap>
+            <<<eb, kSplitBlock, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, info_, deferred_, n_deferred_);
+      else
+        g2p_elastic_kernel<D, S, Model, Shape, kElastic>
+            <<<eb, kSplitBlock, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, info_, deferred_, n_deferred_);
+      g2p_plastic_kernel<D, S, Model, 256, 1><<<cb, opt_.g2p_block, 0, stream_>>>(
+          pv, sp_, ctl_, ids_, info_, deferred_, n_deferred_);
+    } else if (!sp_.vol_avg) {
       if (opt_.g2p_reg_cap)
         g2p_kernel<D, S, Model, Shape, 128, 3><<<cb, opt_.g2p_block, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, info_);
       else
@@ -850,6 +976,9 @@ class CudaRunner final : public Runner {
   std::uint32_t* ids_ = nullptr;   // original index of each slot
   std::uint32_t* ids_alt_ = nullptr;
   std::uint32_t* inv_ = nullptr;   // slot of each original index
+  std::uint32_t* deferred_ = nullptr;  // slots whose plastic return the split G2P deferred
+  unsigned* n_deferred_ = nullptr;     // their count (zeroed by the second pass)
+  double fused_waves_ = 0;             // n / (threads of the fused G2P kernel resident at once)
   long* keys_ = nullptr;           // bin of each particle (volumetric averaging)
   S* bins_ = nullptr;              // per-bin V and V tr L (volumetric averaging)
   std::uint32_t* sort_buf_[4] = {nullptr, nullptr, nullptr, nullptr};  // keys in/out, slots in/out

@@ -198,6 +198,11 @@ UpdateStats operator+(UpdateStats a, const UpdateStats& b) {
   a.tension_cutoff += b.tension_cutoff;
   a.vs_clamped += b.vs_clamped;
   a.separated += b.separated;
+  a.max_substeps = std::max(a.max_substeps, b.max_substeps);
+  a.warp_max_substeps += b.warp_max_substeps;
+  a.warps += b.warps;
+  a.step_max_substeps += b.step_max_substeps;
+  a.steps += b.steps;
   return a;
 }
 
@@ -538,6 +543,9 @@ std::string bench_report(const SceneSetup& su, const Runner& r, const BenchOptio
        1e6 * b.wall_s / n);
   if (b.run.span_steps > 0)
     line("  device time per step (span events): %.2f us\n", 1e6 * b.run.device / double(b.run.span_steps));
+  if (b.run.span_steps > 0 && b.run.deferred > 0)
+    line("  plastic returns (second G2P pass): %.1f %% of the updates\n",
+         100.0 * double(b.run.deferred) / (double(b.run.span_steps) * double(r.particles())));
   if (b.split.steps > 0) {
     const double m = double(b.split.steps);
     const bool same = b.run.steps > 0;

@@ -5,7 +5,7 @@
 //                [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR]
 //                [--transfer flip|tpic] [--flip F | --pic-speed U] [--stop-after T] [--span N] [--bench N [--warmup M] [--loop span|step] [--split N]]
 //                [CUDA options: --graphs on|off --graph-steps N --sort N --p2g atomic|warp|tile
-//                 --g2p-block N --g2p-regcap on|off] [--precision fp64|mixed|fp32]
+//                 --g2p-block N --g2p-regcap on|off --g2p-split auto|on|off] [--precision fp64|mixed|fp32]
 // Defaults of the paper's scenes: Taylor PIC with quadratic B-splines (FLIP with linear hats),
 // the PIC part as a rate (--pic-speed 1 m/s, Scene::pic_speed). --transfer flip|tpic picks the
 // transfer, --flip F a fixed FLIP fraction per step instead of the rate (the scheme before:
@@ -30,11 +30,11 @@ int usage() {
                "       [--shape linear|quadratic] [--backend cpu|cuda] [--out DIR] [--stop-after T]\n"
                "       [--transfer flip|tpic] [--flip F | --pic-speed U] [--span N] [--bench N [--warmup M] [--loop span|step] [--split N]]\n"
                "       CUDA: [--graphs on|off] [--graph-steps N] [--sort N] [--p2g atomic|warp|tile]\n"
-               "             [--g2p-block N] [--g2p-regcap on|off]\n"
+               "             [--g2p-block N] [--g2p-regcap on|off] [--g2p-split auto|on|off]\n"
                "       [--precision fp64|mixed|fp32] (default fp64; docs/mpm.md)\n"
                "defaults: quadratic B-spline, Taylor PIC (FLIP with --shape linear), pic-speed 1 m/s; column h 0.001 dt 1e-5 time 1.0; flume h 0.005 dt 1e-6 time 3.0;\n"
                "--span: most steps without a host round-trip (1: one per step; default 10000);\n"
-               "CUDA defaults: graphs on, graph-steps 32, sort 0, p2g atomic, g2p-block 128, g2p-regcap off\n");
+               "CUDA defaults: graphs on, graph-steps 32, sort 32, p2g warp, g2p-block 128, g2p-regcap off, g2p-split auto\n");
   return 2;
 }
 
@@ -131,6 +131,15 @@ int main(int argc, char** argv) {
       std::printf("device time per step (spans): %.2f us; wall per step %.2f us; %s\n",
                   1e6 * s.times.device / s.times.span_steps, 1e6 * s.wall_s / s.steps,
                   backend == "cuda" ? describe(copt).c_str() : "CPU twin");
+    if (s.times.span_steps > 0 && s.times.deferred > 0)
+      std::printf("plastic returns (second G2P pass): %.1f %% of the updates\n",
+                  100.0 * double(s.times.deferred) / (double(s.times.span_steps) * double(r->particles())));
+    if (s.stats.updates > 0 && s.stats.warps > 0)
+      std::printf("constitutive updates: %.3g, mean substeps %.2f, largest %ld; mean over 32-point groups of their "
+                  "largest %.2f; mean over steps of the step's largest %.2f\n",
+                  double(s.stats.updates), double(s.stats.substeps) / double(s.stats.updates), s.stats.max_substeps,
+                  double(s.stats.warp_max_substeps) / double(s.stats.warps),
+                  double(s.stats.step_max_substeps) / double(s.stats.steps > 0 ? s.stats.steps : 1));
     if (s.consolidation.done)
       std::printf("after stage 1: base sigma_v %.1f Pa vs rho g h %.1f Pa, max rel. error %.3f\n",
                   s.consolidation.base_sigma_v, s.consolidation.base_rho_g_h, s.consolidation.max_rel_error);

@@ -59,7 +59,9 @@ int main(int argc, char** argv) {
                         {ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, false, "sort 0, p2g atomic"},
                         {ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, false, "sort 1, p2g warp, graphs off"},
                         {ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, false, "sort 32, p2g tile, graphs off"},
-                        {ModelKind::Frictional, ShapeKind::QuadraticBSpline, false, "sort 7, g2p-regcap on, graph-steps 4"}};
+                        {ModelKind::Frictional, ShapeKind::QuadraticBSpline, false, "sort 7, g2p-regcap on, graph-steps 4"},
+                        {ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, false, "g2p-split on"},
+                        {ModelKind::Frictional, ShapeKind::Linear, false, "g2p-split on, g2p-regcap on, sort 0, p2g atomic"}};
   const bool short_run = argc > 1 && std::strcmp(argv[1], "--short") == 0;
   for (const Case& c : cases) {
     CudaOptions co;
@@ -73,6 +75,8 @@ int main(int argc, char** argv) {
     if (std::strstr(c.cuda, "graphs off")) co.graphs = false;
     if (std::strstr(c.cuda, "g2p-regcap on")) co.g2p_reg_cap = true;
     if (std::strstr(c.cuda, "graph-steps 4")) co.graph_steps = 4;
+    if (std::strstr(c.cuda, "g2p-split on")) co.g2p_split = CudaOptions::Split::On;
+    if (std::strstr(c.cuda, "g2p-split off")) co.g2p_split = CudaOptions::Split::Off;
     Scene sc = small_column_scene(c.model, c.shape);
     sc.volumetric_averaging = c.vol_avg;
     if (short_run) sc.stages.back().duration = 0.1;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <type_traits>
 
+#include "random_states.hpp"
 #include "reference.hpp"
 
 using namespace granflow;
@@ -105,4 +106,40 @@ TEST(PhaseTransition, FailedUpdateLeavesTheStateUntouched) {
   EXPECT_EQ(st.sigma_f, before.sigma_f);
   st.s = -1.0;  // inadmissible temperature
   EXPECT_FALSE(PT::update(p, st, Mat3<double>::Zero(), 1e-3, sig).ok());
+}
+
+// The GPU's split G2P (UpdatePart::ElasticOnly, then Full on the deferred points) must give the
+// fused update's result bit for bit: an elastic step is the Full step, a deferred one leaves the
+// state as it was, and exactly the steps whose return map runs are deferred.
+TEST(PhaseTransition, ElasticOnlyUpdateIsTheFullUpdateOrDefersPlasticSteps) {
+  const auto p = test::table3_collapse();
+  const auto cases = test::random_cases(20000, -1.0, 0x5eedull);
+  auto same = [](const PT::State& a, const PT::State& b) {
+    return a.sigma_f == b.sigma_f && a.e == b.e && a.eps_pd == b.eps_pd && a.s == b.s;
+  };
+  int deferred = 0, elastic = 0;
+  for (const auto& c : cases) {
+    PT::State full = c.st, part = c.st;
+    Mat3<double> s_full = Mat3<double>::Constant(-7.0), s_part = Mat3<double>::Constant(-7.0);
+    const UpdateInfo fi = PT::update(p, full, c.L, c.dt, s_full);
+    const UpdateInfo pi = PT::update<UpdatePart::ElasticOnly>(p, part, c.L, c.dt, s_part);
+    // the return map changes eps_pd (dLambda > 0) unless the step is elastic or a cut-off
+    const bool plastic = fi.ok() && full.eps_pd != c.st.eps_pd;
+    if (pi.deferred()) {
+      ++deferred;
+      EXPECT_FALSE(pi.ok());
+      EXPECT_TRUE(same(part, c.st)) << "a deferred update changed the state";
+      EXPECT_EQ(s_part, Mat3<double>::Constant(-7.0)) << "a deferred update wrote a stress";
+      EXPECT_TRUE(plastic || !fi.ok() || (fi.flags & info::kTensionCutoff)) << "an elastic step was deferred";
+    } else {
+      ++elastic;
+      EXPECT_FALSE(plastic) << "a plastic step was not deferred";
+      EXPECT_EQ(pi.flags, fi.flags);
+      EXPECT_TRUE(same(part, full));
+      if (fi.ok()) EXPECT_EQ(s_part, s_full);
+    }
+  }
+  // the random set holds both kinds in numbers
+  EXPECT_GT(deferred, 2000);
+  EXPECT_GT(elastic, 2000);
 }

@@ -31,6 +31,14 @@ enum class StressIntegrator {
   ExplicitSubstep  // substepping only; past the budget, eight uncontrolled steps (flagged)
 };
 
+// How much of an update a call may do. ElasticOnly stops where a plastic return would begin:
+// the update reports info::kDeferred and leaves the state untouched, so that a later Full call
+// from the same state gives the result of one Full call bit for bit. The GPU's first G2P pass
+// runs ElasticOnly (without the return map's code it needs half the registers, and its warps do
+// not wait for a point whose return takes many iterations); a second pass runs Full on the
+// deferred points alone (docs/mpm.md, "GPU step").
+enum class UpdatePart { Full, ElasticOnly };
+
 enum class RestitutionUse {
   Everywhere,      // effective restitution in all kinetic functions (the source's text)
   DissipationOnly  // effective restitution only in the cooling terms (MFIX user routine)
@@ -46,12 +54,15 @@ inline constexpr std::uint32_t kReturnUnconverged = 1u << 6;  // return map unco
 inline constexpr std::uint32_t kNonFinite = 1u << 4;       // a non-finite value was produced: state not updated
 inline constexpr std::uint32_t kInadmissible = 1u << 5;    // inadmissible input state (e <= 0, e >= 2.97, T < 0)
 inline constexpr std::uint32_t kErrorMask = kNonFinite | kInadmissible;
+inline constexpr std::uint32_t kDeferred = 1u << 8;        // UpdatePart::ElasticOnly met a plastic step: state untouched
 }  // namespace info
 
 struct UpdateInfo {
   std::uint32_t flags = 0;
   int substeps = 0;
-  GF_HDI bool ok() const { return (flags & info::kErrorMask) == 0; }
+  // The state was updated: no error, and not deferred.
+  GF_HDI bool ok() const { return (flags & (info::kErrorMask | info::kDeferred)) == 0; }
+  GF_HDI bool deferred() const { return (flags & info::kDeferred) != 0; }
 };
 
 // Tolerances of the stress integrators that depend on the floating-point type S (the library

@@ -307,7 +307,7 @@ GF_HDI Mat3<S> elastic_predictor(const FrictionalParams<S>& mp, const Mat3In<S>&
 
 }  // namespace detail
 
-template <LodeShape L, class S>
+template <LodeShape L, UpdatePart P = UpdatePart::Full, class S>
 GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, FrictionalState<S>& st, const Mat3In<S>& deps);
 
 // Integrates the rate law over the strain increment deps (tension-positive, no spin):
@@ -638,7 +638,7 @@ GF_HDI bool bracketed_return(const Residual& res, S dL_max, S ftol, S vol_tol, S
 
 }  // namespace detail
 
-template <LodeShape L, class S>
+template <LodeShape L, UpdatePart P, class S>
 GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, FrictionalState<S>& st, const Mat3In<S>& deps) {
   UpdateInfo inf;
   inf.substeps = 1;
@@ -664,6 +664,10 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
   if (!(yt.f > mp.ftol)) {
     st.sigma = trial;
     st.e = e1;
+    return inf;
+  }
+  if constexpr (P == UpdatePart::ElasticOnly) {  // only yt.f was needed: the rest is dead code
+    inf.flags |= info::kDeferred;
     return inf;
   }
   const StressInvariants<S> inv = stress_invariants(trial, deps);
@@ -773,7 +777,10 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
 // and the material response to d eps = D dt, combined by Strang splitting (half rotation,
 // material increment, half rotation). Rotating the whole step first (Lie splitting) would make
 // the update first order in dt in any loading with spin, such as simple shear.
-template <LodeShape L, StressIntegrator I = StressIntegrator::ImplicitReturn, class S>
+// UpdatePart::ElasticOnly defers plastic steps of the return map; the substepping integrators
+// always do the whole update.
+template <LodeShape L, StressIntegrator I = StressIntegrator::ImplicitReturn, UpdatePart P = UpdatePart::Full,
+          class S>
 GF_HDI UpdateInfo frictional_update(const FrictionalParams<S>& mp, FrictionalState<S>& st, const Mat3In<S>& grad_v,
                                     S dt) {
   const Mat3<S> W = skew(grad_v);
@@ -783,7 +790,8 @@ GF_HDI UpdateInfo frictional_update(const FrictionalParams<S>& mp, FrictionalSta
   const Mat3<S> deps = sym(grad_v) * dt;
   UpdateInfo inf;
   if constexpr (I == StressIntegrator::ImplicitReturn) {
-    inf = frictional_return_map<L>(mp, trial, deps);
+    inf = frictional_return_map<L, P>(mp, trial, deps);
+    if (inf.deferred()) return inf;
   } else {
     inf = frictional_increment<L, I == StressIntegrator::Hybrid>(mp, trial, deps);
   }

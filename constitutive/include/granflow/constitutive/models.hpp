@@ -1,6 +1,7 @@
 // The three models the drivers and the MPM instantiate, with one interface:
 //   Model::Params, Model::State,
-//   Model::update(params, state, grad_v, dt, stress) -> UpdateInfo   (the MPM's update)
+//   Model::update(params, state, grad_v, dt, stress) -> UpdateInfo   (the MPM's update;
+//     Model::update<UpdatePart::ElasticOnly> may defer a plastic step, config.hpp)
 //   Model::diagnostics(params, state, D)             -> Diagnostics  (what the figures plot)
 // Frictional-only carries no temperature; collisional-only carries no skeleton stress.
 // PhaseTransition is the parallel sum of Eq. (1): both parts see the same D (MODEL.md 2, 9).
@@ -37,8 +38,9 @@ struct FrictionalModel {
   using State = FrictionalState<S>;
   static constexpr bool kFrictional = true, kCollisional = false;
 
+  template <UpdatePart P = UpdatePart::Full>
   static GF_HDI UpdateInfo update(const Params& p, State& st, const Mat3In<S>& grad_v, S dt, Mat3<S>& stress) {
-    const UpdateInfo inf = frictional_update<L, I>(p, st, grad_v, dt);
+    const UpdateInfo inf = frictional_update<L, I, P>(p, st, grad_v, dt);
     stress = st.sigma;
     return inf;
   }
@@ -59,6 +61,7 @@ struct CollisionalModel {
   using State = CollisionalState<S>;
   static constexpr bool kFrictional = false, kCollisional = true;
 
+  template <UpdatePart = UpdatePart::Full>  // no plastic step to defer
   static GF_HDI UpdateInfo update(const Params& p, State& st, const Mat3In<S>& grad_v, S dt, Mat3<S>& stress) {
     return collisional_update<R>(p, st, grad_v, dt, stress);
   }
@@ -95,9 +98,10 @@ struct PhaseTransitionModel {
 
   // MODEL.md 9: Jaumann-rotated frictional update (which also advances e exactly), kinetic
   // functions at the new V_s, exact frozen-coefficient temperature update, then the sum.
+  template <UpdatePart P = UpdatePart::Full>
   static GF_HDI UpdateInfo update(const Params& p, State& st, const Mat3In<S>& grad_v, S dt, Mat3<S>& stress) {
     FrictionalState<S> fs{st.sigma_f, st.eps_pd, st.e};
-    UpdateInfo inf = frictional_update<L, I>(p.f, fs, grad_v, dt);
+    UpdateInfo inf = frictional_update<L, I, P>(p.f, fs, grad_v, dt);
     if (!inf.ok()) return inf;
     if (!(st.s >= S(0))) {
       inf.flags |= info::kInadmissible;

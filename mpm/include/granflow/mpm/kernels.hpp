@@ -28,6 +28,7 @@ enum Status : std::uint32_t {
   kNonFiniteVelocity = 2, // field "velocity"
   kConstitutive = 3,      // field "stress": Model::update reported non-finite / inadmissible
   kCompacted = 4,         // field "void ratio": the step's volumetric strain takes e to <= 0
+  kDeferredPoint = 5,     // not a failure: UpdatePart::ElasticOnly left the plastic return to a later Full call
 };
 
 // Void ratio at which a dilating point counts as separated (just inside e < 2.97 of Eq. 13).
@@ -285,7 +286,8 @@ GF_HDI void volumetric_rate(const ParticleView<S>& pv, long p, const StepParams<
 // bin: the "cell-averaged volumetric strain rate" that damps pressure checkerboarding).
 // The update runs in the model's scalar MS = Model::Scalar: S (fp64, fp32) or double with
 // float storage ("mixed": state, L and dt converted to double and the result back).
-template <int D, class S, class Model>
+// With P = ElasticOnly a point that needs a plastic return is left as it was (kDeferredPoint).
+template <int D, class S, class Model, UpdatePart P = UpdatePart::Full>
 GF_HDI std::uint32_t constitutive_particle(const ParticleView<S>& pv, long p, const StepParams<D, S, Model>& sp,
                                            S tr_bar, S* dt_limit, std::uint32_t* upd_info) {
   using Lay = ParticleLayout<D, Model::kCollisional>;
@@ -304,7 +306,8 @@ GF_HDI std::uint32_t constitutive_particle(const ParticleView<S>& pv, long p, co
   const Mat3<MS> L3 = embed_gradient<D, S>(L).template cast<MS>();
   const MS dt = MS(sp.dt);
   const MS e_trial = (MS(1) + st.e) * std::exp(trace(L3) * dt) - MS(1);
-  const UpdateInfo inf = Model::update(sp.mp, st, L3, dt, stress);
+  const UpdateInfo inf = Model::template update<P>(sp.mp, st, L3, dt, stress);
+  if (inf.deferred()) return kDeferredPoint;
   const std::uint32_t nsub = inf.substeps < 65535 ? static_cast<std::uint32_t>(inf.substeps) : 65535u;
   *upd_info = (inf.flags & 0xffu) | (nsub << 16);
   if (inf.ok()) {
@@ -333,13 +336,14 @@ GF_HDI std::uint32_t constitutive_particle(const ParticleView<S>& pv, long p, co
   return kOk;
 }
 
-// 3. G2P and constitutive update fused (no volumetric averaging).
-template <int D, class S, class Model, class Shape>
+// 3. G2P and constitutive update fused (no volumetric averaging). With P = ElasticOnly a
+// kDeferredPoint has its kinematics done (L stored) and needs constitutive_particle (Full).
+template <int D, class S, class Model, class Shape, UpdatePart P = UpdatePart::Full>
 GF_HDI std::uint32_t g2p_particle(const ParticleView<S>& pv, const GridView<S>& gv, long p,
                                   const StepParams<D, S, Model>& sp, S* dt_limit, std::uint32_t* upd_info) {
   const std::uint32_t s = g2p_kinematics<D, S, Model, Shape>(pv, gv, p, sp);
   if (s != kOk) return s;
-  return constitutive_particle<D, S, Model>(pv, p, sp, S(NAN), dt_limit, upd_info);
+  return constitutive_particle<D, S, Model, P>(pv, p, sp, S(NAN), dt_limit, upd_info);
 }
 
 inline const char* status_field(std::uint32_t s) {
@@ -349,6 +353,7 @@ inline const char* status_field(std::uint32_t s) {
     case kConstitutive: return (s >> 8) & info::kInadmissible ? "stress (inadmissible state: void ratio or T)"
                                                               : "stress (non-finite constitutive update)";
     case kCompacted: return "void ratio (compacted to e <= 0 within one step: a blown-up velocity gradient)";
+    case kDeferredPoint: return "none (plastic return deferred)";
     default: return "none";
   }
 }

@@ -82,6 +82,7 @@ struct PhaseTimes {
   double device = 0;                  // CUDA: device time of all spans (start to end event)
   long steps = 0;                     // steps in the phase times
   long span_steps = 0;                // steps in `device`
+  long deferred = 0;                  // CUDA split G2P: updates left to the plastic pass (in `device`)
 };
 
 // What the constitutive updates reported, summed over particles and steps.
@@ -91,6 +92,12 @@ struct UpdateStats {
   long tension_cutoff = 0;  // sigma_f set to zero
   long vs_clamped = 0;      // V_s clamped below V_sd in the kinetic functions
   long separated = 0;       // points treated as separated (e at the cap)
+  // What a GPU warp and a one-wave kernel wait for: the largest substep (return map: residual
+  // evaluation) count of one update; over groups of 32 consecutive points the sum of each group's
+  // largest count; over steps the sum of each step's largest count.
+  long max_substeps = 0;
+  long warp_max_substeps = 0, warps = 0;
+  long step_max_substeps = 0, steps = 0;
 };
 
 // Diagnostics of one particle.
@@ -189,15 +196,27 @@ struct CudaOptions {
   P2G p2g = P2G::Warp;        // scatter: atomics per particle / per run of a warp / block tile
   int g2p_block = 128;        // threads per block of G2P + constitutive (at most 128 with the cap)
   bool g2p_reg_cap = false;   // G2P + constitutive with at most 168 registers (12 warps/SM, more spills)
+  // G2P in two passes: kinematics and elastic updates, then the plastic returns of the deferred
+  // points packed together (no volumetric averaging; docs/mpm.md, "GPU step"). It pays where
+  // the step is throughput-bound and costs where it is latency-bound (a plastic point's path is
+  // the elastic pass plus the whole update). H100: 3D slab (8e6 points) 9.6e8 instead of 8.1e8
+  // particle-updates/s in fp32; 1 mm column (2.4 waves of the fused kernel) 126 instead of 131.5
+  // us per step; 5 mm flume (0.7 waves) 95 instead of 82. Auto: split from 2 waves of the fused
+  // kernel up.
+  enum class Split { Auto, On, Off };
+  Split g2p_split = Split::Auto;
 };
 // Sets one option from its command-line spelling (graphs on|off, graph-steps N, sort N,
-// p2g atomic|warp|tile, g2p-block N, g2p-regcap on|off); false for an unknown name or value.
+// p2g atomic|warp|tile, g2p-block N, g2p-regcap on|off, g2p-split auto|on|off); false for an unknown
+// name or value.
 bool set_cuda_option(CudaOptions& o, const std::string& name, const std::string& value);
 inline std::string describe(const CudaOptions& o) {
   const char* p2g = o.p2g == CudaOptions::P2G::Atomic ? "atomic" : o.p2g == CudaOptions::P2G::Warp ? "warp" : "tile";
   return std::string("graphs ") + (o.graphs ? "on (chunks up to " + std::to_string(o.graph_steps) + " steps)" : "off") +
          ", sort " + (o.sort_every > 0 ? "every " + std::to_string(o.sort_every) + " steps" : "off") + ", p2g " + p2g +
-         ", g2p block " + std::to_string(o.g2p_block) + (o.g2p_reg_cap ? " (<= 168 registers)" : "");
+         ", g2p block " + std::to_string(o.g2p_block) + (o.g2p_reg_cap ? " (<= 168 registers)" : "") +
+         ", g2p split " +
+         (o.g2p_split == CudaOptions::Split::Auto ? "auto" : o.g2p_split == CudaOptions::Split::On ? "on" : "off");
 }
 
 std::unique_ptr<Runner> make_cpu_runner(const SceneSetup& setup);
