@@ -20,6 +20,9 @@
 //   back to warp).
 // - The grid kernel clears mass, momentum and force after using them, so no memset per step,
 //   and returns at once on nodes no particle reached.
+// - G2P: fused (kinematics and the whole constitutive update per thread), or split into a pass
+//   of kinematics and elastic updates that lists the plastic points and a pass of their full
+//   updates (CudaOptions::g2p_split; auto from two waves of the fused kernel up).
 #pragma once
 
 #include <cuda_runtime.h>
@@ -136,8 +139,9 @@ __device__ __forceinline__ void scatter_warp(const P2GParticle<D, S>& q, const i
 // Contribution order: c[0] mass, c[1..D] momentum, c[1+D..2D] force, which are the grid
 // fields 0..2D of GridLayout.
 template <int D, class S, class Model, class Shape, int kMode>
-__global__ void __launch_bounds__(kP2GBlock, p2g_min_blocks<S>()) p2g_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp,
-                                                       const SpanControl* ctl, long* bin_keys) {
+__global__ void __launch_bounds__(kP2GBlock, p2g_min_blocks<S>())
+    p2g_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp, const SpanControl* ctl,
+               long* bin_keys) {
   static_assert(GridLayout<D>::M == 0 && GridLayout<D>::P == 1 && GridLayout<D>::F == 1 + D, "field order");
   constexpr int NC = 1 + 2 * D;
   constexpr int K = Shape::K;
