@@ -34,7 +34,12 @@ bool set_cuda_option(CudaOptions& o, const std::string& name, const std::string&
   if (name == "graphs") return on_off(value, o.graphs);
   if (name == "graph-steps") return count(value, 1, 1024, o.graph_steps);
   if (name == "sort") return count(value, 0, 1 << 30, o.sort_every);
-  if (name == "g2p-block") return count(value, 32, 256, o.g2p_block) && o.g2p_block % 32 == 0;
+  if (name == "g2p-block") {
+    int b = 0;
+    if (!count(value, 32, 256, b) || b % 32 != 0) return false;
+    o.g2p_block = b;
+    return true;
+  }
   if (name == "g2p-regcap") return on_off(value, o.g2p_reg_cap);
   if (name == "g2p-split") {
     bool on = false;

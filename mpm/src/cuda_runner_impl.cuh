@@ -305,7 +305,8 @@ __global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
 // elastic part of every update (UpdatePart::ElasticOnly: half the registers of the full update)
 // and lists the points whose step is plastic; the second runs the full update of the listed
 // points only, packed into warps, so that elastic points wait for no return map and a warp's
-// returns are of points that all need one. Results equal the fused kernel's bit for bit.
+// returns are of points that all need one. Each point gets the fused kernel's update (test
+// PhaseTransition.ElasticOnlyUpdateIsTheFullUpdateOrDefersPlasticSteps).
 template <int D, class S, class Model, class Shape, int kMinBlocks>
 __global__ void __launch_bounds__(kSplitBlock, kMinBlocks)
     g2p_elastic_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp0, SpanControl* ctl,

@@ -10,6 +10,8 @@
 #include <numeric>
 #include <random>
 #include <set>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include <granflow/mpm/binning.hpp>
@@ -482,5 +484,33 @@ TEST(MpmBinning, TileP2GEqualsScatterAndSortedBlocksFitTheTile) {
       EXPECT_LT(st.box_nodes / st.tiled, 120.0);
       EXPECT_GT(double(st.lanes) / double(st.runs), 3.0);
     }
+  }
+}
+
+// The CUDA options' command-line spellings (granflow mpm / bench mpm, granflow-mpm): every
+// value the help lists is taken, anything else is refused and leaves the options as they were.
+TEST(CudaOptions, CommandLineSpellingsAreTakenOrRefusedWithoutSideEffects) {
+  CudaOptions o;
+  EXPECT_EQ(o.g2p_split, CudaOptions::Split::Auto);
+  EXPECT_TRUE(set_cuda_option(o, "g2p-split", "on"));
+  EXPECT_EQ(o.g2p_split, CudaOptions::Split::On);
+  EXPECT_TRUE(set_cuda_option(o, "g2p-split", "off"));
+  EXPECT_EQ(o.g2p_split, CudaOptions::Split::Off);
+  EXPECT_TRUE(set_cuda_option(o, "g2p-split", "auto"));
+  EXPECT_EQ(o.g2p_split, CudaOptions::Split::Auto);
+  EXPECT_NE(describe(o).find("g2p split auto"), std::string::npos);
+  EXPECT_TRUE(set_cuda_option(o, "p2g", "tile"));
+  EXPECT_EQ(o.p2g, CudaOptions::P2G::Tile);
+  EXPECT_TRUE(set_cuda_option(o, "sort", "0"));
+  EXPECT_EQ(o.sort_every, 0);
+  EXPECT_TRUE(set_cuda_option(o, "g2p-block", "64"));
+  EXPECT_EQ(o.g2p_block, 64);
+
+  const CudaOptions before = o;
+  for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{
+           {"g2p-split", "maybe"}, {"g2p-block", "100"}, {"g2p-block", "512"}, {"sort", "-1"}, {"sort", "8x"},
+           {"p2g", "shared"}, {"graphs", "yes please"}, {"graph-steps", "0"}, {"g2p-splits", "on"}}) {
+    EXPECT_FALSE(set_cuda_option(o, name, value)) << name << " " << value;
+    EXPECT_EQ(describe(o), describe(before)) << name << " " << value << " changed the options";
   }
 }
