@@ -241,8 +241,7 @@ void run_mpm(const MpmOptions& o) {
     if (s.stats.warps > 0)
       std::printf("substeps of one update: largest %ld; mean over 32-point groups (a GPU warp) of their largest "
                   "%.2f; mean over steps of the step's largest %.2f\n",
-                  s.stats.max_substeps, double(s.stats.warp_max_substeps) / double(s.stats.warps),
-                  double(s.stats.step_max_substeps) / double(std::max(1L, s.stats.steps)));
+                  s.stats.max_substeps, s.stats.mean_warp_max(), s.stats.mean_step_max());
   }
   std::printf("final run-out: %.4f m\nfinal height: %.4f m\nmax speed: %.4g m/s\n", s.final.runout, s.final.height,
               s.final.max_speed);

@@ -543,9 +543,8 @@ std::string bench_report(const SceneSetup& su, const Runner& r, const BenchOptio
        1e6 * b.wall_s / n);
   if (b.run.span_steps > 0)
     line("  device time per step (span events): %.2f us\n", 1e6 * b.run.device / double(b.run.span_steps));
-  if (b.run.span_steps > 0 && b.run.deferred > 0)
-    line("  plastic returns (second G2P pass): %.1f %% of the updates\n",
-         100.0 * double(b.run.deferred) / (double(b.run.span_steps) * double(r.particles())));
+  if (b.run.deferred > 0)
+    line("  plastic returns (second G2P pass): %.1f %% of the updates\n", 100.0 * b.run.deferred_share(r.particles()));
   if (b.split.steps > 0) {
     const double m = double(b.split.steps);
     const bool same = b.run.steps > 0;

@@ -131,15 +131,14 @@ int main(int argc, char** argv) {
       std::printf("device time per step (spans): %.2f us; wall per step %.2f us; %s\n",
                   1e6 * s.times.device / s.times.span_steps, 1e6 * s.wall_s / s.steps,
                   backend == "cuda" ? describe(copt).c_str() : "CPU twin");
-    if (s.times.span_steps > 0 && s.times.deferred > 0)
+    if (s.times.deferred > 0)
       std::printf("plastic returns (second G2P pass): %.1f %% of the updates\n",
-                  100.0 * double(s.times.deferred) / (double(s.times.span_steps) * double(r->particles())));
+                  100.0 * s.times.deferred_share(r->particles()));
     if (s.stats.updates > 0 && s.stats.warps > 0)
       std::printf("constitutive updates: %.3g, mean substeps %.2f, largest %ld; mean over 32-point groups of their "
                   "largest %.2f; mean over steps of the step's largest %.2f\n",
                   double(s.stats.updates), double(s.stats.substeps) / double(s.stats.updates), s.stats.max_substeps,
-                  double(s.stats.warp_max_substeps) / double(s.stats.warps),
-                  double(s.stats.step_max_substeps) / double(s.stats.steps > 0 ? s.stats.steps : 1));
+                  s.stats.mean_warp_max(), s.stats.mean_step_max());
     if (s.consolidation.done)
       std::printf("after stage 1: base sigma_v %.1f Pa vs rho g h %.1f Pa, max rel. error %.3f\n",
                   s.consolidation.base_sigma_v, s.consolidation.base_rho_g_h, s.consolidation.max_rel_error);

@@ -83,6 +83,10 @@ struct PhaseTimes {
   long steps = 0;                     // steps in the phase times
   long span_steps = 0;                // steps in `device`
   long deferred = 0;                  // CUDA split G2P: updates left to the plastic pass (in `device`)
+  // Share of the updates of `span_steps` steps of n points that the plastic pass did.
+  double deferred_share(long n) const {
+    return span_steps > 0 && n > 0 ? double(deferred) / (double(span_steps) * double(n)) : 0.0;
+  }
 };
 
 // What the constitutive updates reported, summed over particles and steps.
@@ -98,6 +102,8 @@ struct UpdateStats {
   long max_substeps = 0;
   long warp_max_substeps = 0, warps = 0;
   long step_max_substeps = 0, steps = 0;
+  double mean_warp_max() const { return warps > 0 ? double(warp_max_substeps) / double(warps) : 0.0; }
+  double mean_step_max() const { return steps > 0 ? double(step_max_substeps) / double(steps) : 0.0; }
 };
 
 // Diagnostics of one particle.
