@@ -10,8 +10,8 @@
 #include <granflow/calibration/synthesize.hpp>
 
 #include "commands.hpp"
-#include "io/input_error.hpp"
-#include "io/parameter_set.hpp"
+#include <granflow/io/input_error.hpp>
+#include <granflow/io/parameter_set.hpp>
 
 namespace granflow::cli {
 

@@ -14,8 +14,8 @@
 #include <granflow/elementtest/run.hpp>
 
 #include "commands.hpp"
-#include "io/input_error.hpp"
-#include "io/parameter_set.hpp"
+#include <granflow/io/input_error.hpp>
+#include <granflow/io/parameter_set.hpp>
 
 namespace granflow::cli {
 

@@ -21,9 +21,9 @@
 #include <granflow/mpm/memory.hpp>
 
 #include "commands.hpp"
-#include "io/input_error.hpp"
-#include "io/parameter_set.hpp"
-#include "io/scene.hpp"
+#include <granflow/io/input_error.hpp>
+#include <granflow/io/parameter_set.hpp>
+#include <granflow/mpm/scene_file.hpp>
 
 namespace granflow::cli {
 
@@ -33,7 +33,7 @@ namespace fs = std::filesystem;
 
 // precision: "" keeps the scene's solver.precision; fp64 | mixed | fp32 overrides it.
 mpm::SceneSetup setup_from_file(const std::string& file, const std::string& precision = "") {
-  mpm::Scene sc = io::load_scene(file);
+  mpm::Scene sc = mpm::load_scene(file);
   if (!precision.empty()) mpm::parse_precision(precision, sc.precision);
   try {
     return mpm::make_setup(sc);

@@ -4,7 +4,7 @@
 #include <iostream>
 
 #include "commands.hpp"
-#include "io/input_error.hpp"
+#include <granflow/io/input_error.hpp>
 
 int main(int argc, char** argv) {
   CLI::App app{

@@ -6,8 +6,8 @@
 #include <sstream>
 
 #include "granflow/calibration/experiment.hpp"
-#include "io/csv_table.hpp"
-#include "io/input_error.hpp"
+#include <granflow/io/csv_table.hpp>
+#include <granflow/io/input_error.hpp>
 
 namespace granflow::calibration {
 

@@ -8,8 +8,8 @@
 #include <random>
 
 #include "granflow/calibration/experiment.hpp"
-#include "io/input_error.hpp"
-#include "io/toml_reader.hpp"
+#include <granflow/io/input_error.hpp>
+#include <granflow/io/toml_reader.hpp>
 
 #if defined(GRANFLOW_HAVE_ELEMENTTEST) && __has_include(<granflow/elementtest/run.hpp>)
 #include <granflow/elementtest/run.hpp>

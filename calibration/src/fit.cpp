@@ -10,7 +10,7 @@
 #include <nlopt.hpp>
 
 #include "granflow/calibration/fit.hpp"
-#include "io/input_error.hpp"
+#include <granflow/io/input_error.hpp>
 
 namespace granflow::calibration {
 

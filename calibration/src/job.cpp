@@ -8,8 +8,8 @@
 #include "granflow/calibration/experiment.hpp"
 #include "granflow/calibration/parameters.hpp"
 #include "granflow/calibration/synthesize.hpp"
-#include "io/input_error.hpp"
-#include "io/toml_reader.hpp"
+#include <granflow/io/input_error.hpp>
+#include <granflow/io/toml_reader.hpp>
 
 namespace granflow::calibration {
 

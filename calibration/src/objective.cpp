@@ -6,7 +6,7 @@
 #include "granflow/calibration/experiment.hpp"
 #include "granflow/calibration/fit.hpp"
 #include "granflow/calibration/parameters.hpp"
-#include "io/input_error.hpp"
+#include <granflow/io/input_error.hpp>
 
 namespace granflow::calibration {
 

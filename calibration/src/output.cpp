@@ -13,8 +13,8 @@
 
 #include "granflow/calibration/experiment.hpp"
 #include "granflow/calibration/fit.hpp"
-#include "io/input_error.hpp"
-#include "io/toml_reader.hpp"
+#include <granflow/io/input_error.hpp>
+#include <granflow/io/toml_reader.hpp>
 
 #ifndef GRANFLOW_SOURCE_DIR
 #define GRANFLOW_SOURCE_DIR "."

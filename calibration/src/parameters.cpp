@@ -4,7 +4,7 @@
 #include <functional>
 #include <map>
 
-#include "io/input_error.hpp"
+#include <granflow/io/input_error.hpp>
 
 namespace granflow::calibration {
 

@@ -6,7 +6,7 @@
 #include <granflow/constitutive.hpp>
 
 #include "granflow/calibration/experiment.hpp"
-#include "io/input_error.hpp"
+#include <granflow/io/input_error.hpp>
 
 namespace granflow::calibration {
 

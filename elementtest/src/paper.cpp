@@ -13,7 +13,7 @@
 
 #include <granflow/constitutive.hpp>
 
-#include "io/csv_table.hpp"
+#include <granflow/io/csv_table.hpp>
 
 namespace granflow::elementtest::paper {
 

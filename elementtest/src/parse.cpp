@@ -7,8 +7,8 @@
 
 #include "granflow/elementtest/run.hpp"
 #include "test_file_text.hpp"
-#include "io/csv_table.hpp"
-#include "io/toml_reader.hpp"
+#include <granflow/io/csv_table.hpp>
+#include <granflow/io/toml_reader.hpp>
 
 namespace granflow::elementtest {
 

@@ -13,7 +13,7 @@
 
 #include <unistd.h>
 
-#include "io/input_error.hpp"
+#include <granflow/io/input_error.hpp>
 
 namespace granflow::calibration::test {
 

@@ -12,7 +12,7 @@
 #include <granflow/constitutive.hpp>
 
 #include "helpers.hpp"
-#include "io/parameter_set.hpp"
+#include <granflow/io/parameter_set.hpp>
 
 namespace granflow::calibration::test {
 

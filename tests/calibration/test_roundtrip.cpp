@@ -14,7 +14,7 @@
 #include <granflow/calibration/synthesize.hpp>
 
 #include "helpers.hpp"
-#include "io/parameter_set.hpp"
+#include <granflow/io/parameter_set.hpp>
 
 namespace granflow::calibration::test {
 

@@ -9,7 +9,7 @@
 #include <granflow/elementtest/paper.hpp>
 #include <granflow/elementtest/run.hpp>
 
-#include "io/parameter_set.hpp"
+#include <granflow/io/parameter_set.hpp>
 
 namespace gt = granflow::elementtest;
 using granflow::io::ParameterSet;

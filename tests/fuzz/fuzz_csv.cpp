@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "io/csv_table.hpp"
-#include "io/input_error.hpp"
+#include <granflow/io/csv_table.hpp>
+#include <granflow/io/input_error.hpp>
 
 using namespace granflow;
 

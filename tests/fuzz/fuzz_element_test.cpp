@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <string>
 
-#include "io/input_error.hpp"
+#include <granflow/io/input_error.hpp>
 #include "toml_known_ub.hpp"
 #include "test_file_text.hpp"
 

@@ -7,9 +7,9 @@
 #include <cstdlib>
 #include <string>
 
-#include "io/input_error.hpp"
+#include <granflow/io/input_error.hpp>
 #include "toml_known_ub.hpp"
-#include "io/parameter_set.hpp"
+#include <granflow/io/parameter_set.hpp>
 
 using namespace granflow;
 

@@ -6,8 +6,8 @@
 #include <fstream>
 #include <string>
 
-#include "io/input_error.hpp"
-#include "io/parameter_set.hpp"
+#include <granflow/io/input_error.hpp>
+#include <granflow/io/parameter_set.hpp>
 
 using namespace granflow;
 using granflow::io::InputError;

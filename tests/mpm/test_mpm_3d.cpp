@@ -9,7 +9,7 @@
 
 #include <granflow/mpm/driver.hpp>
 
-#include "io/scene.hpp"
+#include <granflow/mpm/scene_file.hpp>
 #include "one_thread.hpp"
 #include "tiny_column.hpp"
 
@@ -47,7 +47,7 @@ Scene plane_strain_column(ShapeKind shape) { return test::tiny_column(ModelKind:
 // round-off amplified by the flow: below 1 % of the speed and 1e-3 of the grid spacing), and ends within
 // 1 % of the 2D column in run-out, height and base stress. In fp32 too.
 TEST(Mpm3d, CiSlabReproducesThePlaneStrainColumn) {
-  Scene sc = io::load_scene(kScenes + "column_collapse_3d_ci.toml");
+  Scene sc = mpm::load_scene(kScenes + "column_collapse_3d_ci.toml");
   ASSERT_EQ(sc.dim, 3);
   const SlabRun r3 = run_scene(sc);
   const SlabRun r2 = run_scene(plane_strain_column(sc.shape));
@@ -109,9 +109,9 @@ TEST(Mpm3d, CiSlabReproducesThePlaneStrainColumn) {
 // The GPU benchmark scene is the CI slab's set-up at 1 mm and 50 mm width: 8e6 points (not set up
 // here: 2 GB), same material, walls, gate and stages as the 2D paper scene.
 TEST(Mpm3d, BenchmarkSceneIsThePaperColumnAsASlab) {
-  const Scene big = io::load_scene(kScenes + "column_collapse_3d.toml");
-  const Scene ci = io::load_scene(kScenes + "column_collapse_3d_ci.toml");
-  const Scene col = io::load_scene(kScenes + "column_collapse.toml");
+  const Scene big = mpm::load_scene(kScenes + "column_collapse_3d.toml");
+  const Scene ci = mpm::load_scene(kScenes + "column_collapse_3d_ci.toml");
+  const Scene col = mpm::load_scene(kScenes + "column_collapse.toml");
   ASSERT_EQ(big.dim, 3);
   EXPECT_DOUBLE_EQ(big.h, 0.001);
   EXPECT_EQ(big.ppc_axis, 2);

@@ -11,8 +11,8 @@
 
 #include <granflow/mpm/driver.hpp>
 
-#include "io/input_error.hpp"
-#include "io/scene.hpp"
+#include <granflow/io/input_error.hpp>
+#include <granflow/mpm/scene_file.hpp>
 
 using namespace granflow;
 using namespace granflow::mpm;
@@ -137,7 +137,7 @@ times = [0.001]
 
 std::string load_error(const std::string& name, const std::string& text) {
   try {
-    const Scene sc = io::load_scene(write_tmp(name, text));
+    const Scene sc = mpm::load_scene(write_tmp(name, text));
     make_setup(sc);
   } catch (const io::InputError& e) {
     return e.what();
@@ -157,7 +157,7 @@ std::string replace(std::string s, const std::string& a, const std::string& b) {
 
 TEST(MpmIo, VtuReadBackMatchesFrame) {
   for (const bool binary : {true, false}) {
-    Scene sc = io::load_scene(write_tmp("good", kGood));
+    Scene sc = mpm::load_scene(write_tmp("good", kGood));
     sc.output.binary = binary;
     const SceneSetup su = make_setup(sc);
     auto r = make_cpu_runner(su);
@@ -231,7 +231,7 @@ TEST(MpmIo, BadScenesGiveClearErrors) {
 }
 
 TEST(MpmIo, ParticleLeavingTheGridStopsWithMessageAndLastGoodFrame) {
-  Scene sc = io::load_scene(write_tmp("leave", kGood));
+  Scene sc = mpm::load_scene(write_tmp("leave", kGood));
   sc.walls.clear();  // nothing holds the block: it falls out of the grid
   sc.stages[0].duration = 0.5;
   sc.output.times.clear();
@@ -340,17 +340,17 @@ TEST(MpmIo, SceneFilesMatchInCodeScenes) {
   const std::string dir = std::string(GRANFLOW_SOURCE_DIR) + "/mpm/scenes/";
   using MK = ModelKind;
   using SK = ShapeKind;
-  expect_same_scene(io::load_scene(dir + "column_collapse.toml"), column_scene(0.001, 1e-5, MK::PhaseTransition, SK::QuadraticBSpline, 1.0));
-  expect_same_scene(io::load_scene(dir + "column_collapse_frictional.toml"), column_scene(0.001, 1e-5, MK::Frictional, SK::QuadraticBSpline, 1.0));
+  expect_same_scene(mpm::load_scene(dir + "column_collapse.toml"), column_scene(0.001, 1e-5, MK::PhaseTransition, SK::QuadraticBSpline, 1.0));
+  expect_same_scene(mpm::load_scene(dir + "column_collapse_frictional.toml"), column_scene(0.001, 1e-5, MK::Frictional, SK::QuadraticBSpline, 1.0));
   Scene ci = small_column_scene(MK::PhaseTransition);
   ci.output.times = {0.05, 0.25, 0.4};
-  expect_same_scene(io::load_scene(dir + "column_collapse_ci.toml"), ci);
-  expect_same_scene(io::load_scene(dir + "flume.toml"), flume_scene(0.005, 1e-6, MK::PhaseTransition, SK::QuadraticBSpline, 3.0));
-  expect_same_scene(io::load_scene(dir + "flume_frictional.toml"), flume_scene(0.005, 1e-6, MK::Frictional, SK::QuadraticBSpline, 3.0));
+  expect_same_scene(mpm::load_scene(dir + "column_collapse_ci.toml"), ci);
+  expect_same_scene(mpm::load_scene(dir + "flume.toml"), flume_scene(0.005, 1e-6, MK::PhaseTransition, SK::QuadraticBSpline, 3.0));
+  expect_same_scene(mpm::load_scene(dir + "flume_frictional.toml"), flume_scene(0.005, 1e-6, MK::Frictional, SK::QuadraticBSpline, 3.0));
 }
 
 TEST(MpmIo, GeostaticInitialStressLiesOnTheYieldSurface) {
-  const Scene sc = io::load_scene(write_tmp("geo", replace(kGood, "[[body]]", "[initial_stress]\nkind = \"geostatic\"\nK0 = 0.6\n\n[[body]]")));
+  const Scene sc = mpm::load_scene(write_tmp("geo", replace(kGood, "[[body]]", "[initial_stress]\nkind = \"geostatic\"\nK0 = 0.6\n\n[[body]]")));
   ASSERT_TRUE(sc.initial.geostatic);
   const SceneSetup su = make_setup(sc);
   const HostParticles& hp = su.particles;

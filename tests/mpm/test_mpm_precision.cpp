@@ -11,8 +11,8 @@
 #include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/memory.hpp>
 
-#include "io/input_error.hpp"
-#include "io/scene.hpp"
+#include <granflow/io/input_error.hpp>
+#include <granflow/mpm/scene_file.hpp>
 #include "one_thread.hpp"
 #include "tiny_column.hpp"
 
@@ -136,11 +136,11 @@ TEST(MpmPrecision, SceneKeyAndItsLimits) {
     std::ofstream(path) << t;
     return path.string();
   };
-  EXPECT_EQ(io::load_scene(dir + "column_collapse_ci.toml").precision, Precision::FP64);  // default
-  EXPECT_EQ(io::load_scene(with_solver("precision = \"fp32\"")).precision, Precision::FP32);
-  EXPECT_EQ(io::load_scene(with_solver("precision = \"mixed\"")).precision, Precision::Mixed);
+  EXPECT_EQ(mpm::load_scene(dir + "column_collapse_ci.toml").precision, Precision::FP64);  // default
+  EXPECT_EQ(mpm::load_scene(with_solver("precision = \"fp32\"")).precision, Precision::FP32);
+  EXPECT_EQ(mpm::load_scene(with_solver("precision = \"mixed\"")).precision, Precision::Mixed);
   try {
-    io::load_scene(with_solver("precision = \"fp16\""));
+    mpm::load_scene(with_solver("precision = \"fp16\""));
     FAIL() << "expected an input error";
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("solver.precision"), std::string::npos) << e.what();

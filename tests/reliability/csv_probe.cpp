@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "io/csv_table.hpp"
-#include "io/input_error.hpp"
+#include <granflow/io/csv_table.hpp>
+#include <granflow/io/input_error.hpp>
 
 int main(int argc, char** argv) {
   if (argc < 3 || argc > 4) {

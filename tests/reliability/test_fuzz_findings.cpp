@@ -4,9 +4,9 @@
 
 #include <string>
 
-#include "io/input_error.hpp"
+#include <granflow/io/input_error.hpp>
 #include "test_file_text.hpp"
-#include "io/parameter_set.hpp"
+#include <granflow/io/parameter_set.hpp>
 
 using namespace granflow;
 

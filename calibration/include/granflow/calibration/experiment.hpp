@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "io/parameter_set.hpp"
+#include <granflow/io/parameter_set.hpp>
 
 namespace granflow::io {
 class TomlTable;

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "io/parameter_set.hpp"
+#include <granflow/io/parameter_set.hpp>
 
 namespace granflow::calibration {
 

@@ -3,7 +3,7 @@
 
 #include <string>
 
-#include "io/parameter_set.hpp"
+#include <granflow/io/parameter_set.hpp>
 
 namespace granflow::calibration {
 

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "io/input_error.hpp"    // granflow_io (cli/io)
-#include "io/parameter_set.hpp"
+#include <granflow/io/input_error.hpp>    // granflow_io (io/)
+#include <granflow/io/parameter_set.hpp>
 
 namespace granflow::io {
 class TomlTable;

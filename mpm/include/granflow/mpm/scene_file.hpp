@@ -6,8 +6,8 @@
 
 #include <granflow/mpm/scene.hpp>
 
-namespace granflow::io {
+namespace granflow::mpm {
 
-mpm::Scene load_scene(const std::string& path);
+Scene load_scene(const std::string& path);
 
-}  // namespace granflow::io
+}  // namespace granflow::mpm

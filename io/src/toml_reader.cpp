@@ -1,4 +1,4 @@
-#include "toml_reader.hpp"
+#include <granflow/io/toml_reader.hpp>
 
 #include <algorithm>
 #include <cmath>

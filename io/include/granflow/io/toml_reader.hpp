@@ -10,7 +10,7 @@
 
 #include <toml++/toml.h>
 
-#include "input_error.hpp"
+#include <granflow/io/input_error.hpp>
 
 namespace granflow::io {
 

@@ -1,4 +1,4 @@
-#include "parameter_set.hpp"
+#include <granflow/io/parameter_set.hpp>
 
 #include <cctype>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include <iomanip>
 #include <sstream>
 
-#include "toml_reader.hpp"
+#include <granflow/io/toml_reader.hpp>
 
 #ifndef GRANFLOW_SOURCE_DATA_DIR
 #define GRANFLOW_SOURCE_DATA_DIR "data"

@@ -1,14 +1,15 @@
-#include "scene.hpp"
+#include <granflow/mpm/scene_file.hpp>
 
 #include <cmath>
 #include <filesystem>
 #include <sstream>
 
-#include "input_error.hpp"
-#include "parameter_set.hpp"
-#include "toml_reader.hpp"
+#include <granflow/io/input_error.hpp>
+#include <granflow/io/parameter_set.hpp>
+#include <granflow/io/toml_reader.hpp>
 
-namespace granflow::io {
+namespace granflow::mpm {
+using namespace granflow::io;  // the strict TOML reader this file format is built on
 namespace {
 
 std::vector<double> vec(TomlTable& t, const std::string& key, int dim, Bounds b = Bounds::any()) {
@@ -240,4 +241,4 @@ mpm::Scene load_scene(const std::string& path) {
   return sc;
 }
 
-}  // namespace granflow::io
+}  // namespace granflow::mpm

@@ -1,4 +1,4 @@
-#include "csv_table.hpp"
+#include <granflow/io/csv_table.hpp>
 
 #include <array>
 #include <cerrno>
@@ -15,7 +15,7 @@
 
 #include <libfccp/csv.h>
 
-#include "input_error.hpp"
+#include <granflow/io/input_error.hpp>
 
 namespace granflow::io {
 
