@@ -6,6 +6,7 @@ One panel per (data column, model output); one colour per experiment; markers = 
 dashed = model at the start, solid = fitted model.
 """
 import csv
+import os
 import sys
 from collections import OrderedDict
 
@@ -13,6 +14,33 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+
+
+def save_png(fig, path, dpi):
+    """Write to path.tmp and rename, so that a failed plot leaves no partial PNG under path."""
+    tmp = path + ".tmp"
+    try:
+        fig.savefig(tmp, dpi=dpi, format="png")
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+# Units of the model outputs (element-test result columns, docs/elementtest.md) and abscissae.
+UNITS = {"tau": "Pa", "tau_f": "Pa", "tau_c": "Pa", "sigma_n": "Pa", "sigma_n_f": "Pa", "sigma_n_c": "Pa",
+         "p": "Pa", "q": "Pa", "p_f": "Pa", "q_f": "Pa", "p_c": "Pa", "q_c": "Pa", "T": "m²/s²",
+         "eta_c": "Pa s", "time": "s", "shear_rate": "1/s"}
+ABSCISSA_UNITS = {"time": "s", "strain": "-", "shear_rate": "1/s", "solid_fraction": "-"}
+# steady-shear data in the DEM's units (experiments.steady_shear.units = "dimensionless")
+DIMLESS = {"p": r"$p\,/\,(\rho_p d^2 \dot\gamma^2)$", "tau": r"$\tau\,/\,(\rho_p d^2 \dot\gamma^2)$",
+           "T": r"$T\,/\,(d \dot\gamma)^2$"}
+
+
+def ylabel(data_column, output):
+    if "dimless" in data_column and output in DIMLESS:
+        return "%s  (model: %s) [-]" % (DIMLESS[output], output)
+    return "%s  (model: %s) [%s]" % (data_column, output, UNITS.get(output, "-"))
 
 
 def main():
@@ -42,15 +70,16 @@ def main():
             1e-300, min(abs(float(p["data"])) for e in exps.values() for p in e))
         if positive and span > 100:
             ax.set_yscale("log")
-        ax.set_xlabel(pts[0]["abscissa"] + " (" + pts[0]["quantity"] + ")")
-        ax.set_ylabel("%s  (model: %s)" % (dcol, out))
+        q = pts[0]["quantity"]
+        ax.set_xlabel("%s (%s) [%s]" % (pts[0]["abscissa"], q, ABSCISSA_UNITS.get(q, "-")))
+        ax.set_ylabel(ylabel(dcol, out))
         ax.grid(alpha=0.3)
         ax.legend(fontsize=6)
     for ax in list(axes.flat)[n:]:
         ax.axis("off")
     fig.suptitle((sys.argv[3] if len(sys.argv) > 3 else "") + "  markers: data, dashed: start, solid: fitted")
     fig.tight_layout()
-    fig.savefig(sys.argv[2], dpi=110)
+    save_png(fig, sys.argv[2], 110)
 
 
 if __name__ == "__main__":

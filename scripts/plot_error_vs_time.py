@@ -1,20 +1,33 @@
 #!/usr/bin/env python3
-"""Error against run time of the GPU series (issues 5 and 7).
+"""Error against run time of the GPU mesh series.
 
-Reads the rows that scripts/gpu_runs_series.sh writes (default docs/figures/mpm_series_h100.csv),
+Reads the rows that `scripts/gpu.sh series` writes (default docs/figures/mpm_series_h100.csv),
 takes for each scene the finest fp64 run of the phase-transition model as the reference
 (the column: 1 mm at the fixed step; the flume: the finest grid run), and writes
   <stem>_errors.csv  every full run with its run-out error and the paper's time for its grid,
   <stem>.png         |run-out error| against wall time, one panel per scene,
-and prints the Markdown table of docs/mpm.md.
+and prints the Markdown table of docs/mpm_results.md.
 """
 import csv
+import os
 import sys
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+
+
+def save_png(fig, path, dpi):
+    """Write to path.tmp and rename, so that a failed plot leaves no partial PNG under path."""
+    tmp = path + ".tmp"
+    try:
+        fig.savefig(tmp, dpi=dpi, format="png")
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
 
 src = sys.argv[1] if len(sys.argv) > 1 else "docs/figures/mpm_series_h100.csv"
 stem = src[:-4] if src.endswith(".csv") else src
@@ -76,12 +89,12 @@ for ax, scene in zip(axes, ("column", "flume")):
         ax.plot([], [], m, color=c, label=f"{'CFL 0.5' if kind == 'cfl' else 'fixed dt'}, {prec}")
     ax.set_title(f"{scene} (labels: grid in mm)")
     ax.set_xlabel("wall time on one H100 [s]")
-    ax.set_ylabel("|final run-out error| vs finest fp64 run\n(below 1e-4 drawn at 1e-4)")
+    ax.set_ylabel("|final run-out error| vs finest fp64 run [-]\n(below 1e-4 drawn at 1e-4)")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
 fig.suptitle("MPM error against run time (phase-transition model; paper: 1.2-450 min per run on an RTX 4080)")
 fig.tight_layout()
-fig.savefig(stem + ".png", dpi=110)
+save_png(fig, stem + ".png", 110)
 
 print("| scene | grid [mm] | time step | precision | model | steps | wall [s] | device us/step | run-out [m] | error | at t_flow 0.4 s [m] | paper [min] |")
 print("|---|---|---|---|---|---|---|---|---|---|---|---|")

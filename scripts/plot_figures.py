@@ -30,10 +30,23 @@ def read(path, key):
 
 
 def save(fig, folder, name):
+    """Write to NAME.tmp and rename, so that a failed plot leaves no partial PNG under NAME."""
     fig.tight_layout()
-    fig.savefig(os.path.join(folder, name), dpi=110)
-    plt.close(fig)
+    path = os.path.join(folder, name)
+    tmp = path + ".tmp"
+    try:
+        fig.savefig(tmp, dpi=110, format="png")
+        os.replace(tmp, path)
+    finally:
+        plt.close(fig)
+        if os.path.exists(tmp):
+            os.remove(tmp)
     print("  wrote", os.path.join(folder, name))
+
+
+# DEM units: stresses in rho_p d^2 gammadot^2, temperature in (d gammadot)^2
+DEM_LABEL = {"p": r"$p\,/\,(\rho_p d^2 \dot\gamma^2)$ [-]", "s": r"$s\,/\,(\rho_p d^2 \dot\gamma^2)$ [-]",
+             "T": r"$T\,/\,(d \dot\gamma)^2$ [-]"}
 
 
 def kpa(v):
@@ -49,7 +62,7 @@ def fig4(folder):
     ax[0].set_xlabel("vertical stress sigma_n [kPa]")
     ax[0].set_ylabel("shear stress tau [kPa]")
     ax[0].set_title("Fig. 4a: stress path (frictional, Table 1)")
-    ax[1].set_xlabel("shear strain gamma")
+    ax[1].set_xlabel("shear strain gamma [-]")
     ax[1].set_ylabel("shear stress tau [kPa]")
     ax[1].set_title("Fig. 4b: undrained simple shear, 100 kPa, K0")
     for a in ax:
@@ -64,8 +77,8 @@ def fig5(folder):
     for e0, d in c.items():
         ax[0].plot(d["shear_rate"], d["sigma_n"], label="e0 = %s" % e0)
         ax[1].plot(d["shear_rate"], d["tau"], label="e0 = %s" % e0)
-    ax[0].set_ylabel("normal stress [Pa]")
-    ax[1].set_ylabel("shear stress [Pa]")
+    ax[0].set_ylabel("normal stress sigma_n [Pa]")
+    ax[1].set_ylabel("shear stress tau [Pa]")
     for a in ax:
         a.set_xlabel("shear rate [1/s]")
         a.legend()
@@ -114,7 +127,7 @@ def fig7(folder):
     ax[2].set_title("collisional share K_col = q_c / (q_c + q_f)")
     ax[0].set_ylabel("stress [Pa]")
     ax[1].set_ylabel("shear stress [Pa]")
-    ax[2].set_ylabel("K_col")
+    ax[2].set_ylabel("K_col [-]")
     for a in ax:
         a.set_xlabel("shear rate [1/s]")
         a.legend(fontsize=7)
@@ -137,8 +150,9 @@ def dem(folder):
             for a, q in zip(ax[j], ["p", "s", "T"]):
                 a.semilogy(nu, [r[q + "_dem"] for r in g], "C%do" % i, ms=3, label="DEM e=%s" % k[1])
                 a.semilogy(nu, [r[q + "_model"] for r in g], "C%d-" % i, label="model e=%s" % k[1])
-                a.set_title("%s / (rho_p d^2 gd^2), mu_p = %s" % (q, mu) if q != "T" else "T / (d gd)^2, mu_p = %s" % mu)
-                a.set_xlabel("solid fraction")
+                a.set_title("%s, mu_p = %s" % (q, mu))
+                a.set_ylabel(DEM_LABEL[q])
+                a.set_xlabel("solid fraction nu [-]")
         ax[j][0].legend(fontsize=6, ncol=2)
     for a in ax.flat:
         a.grid(alpha=0.3, which="both")
@@ -165,7 +179,7 @@ def bench(folder):
             for p in pts:
                 a.annotate(p[2], (p[0], p[1]), fontsize=6)
         a.set_xlabel("CPU time [s]")
-        a.set_ylabel("max relative error (sigma_n, tau)")
+        a.set_ylabel("max relative error of sigma_n, tau [-]")
         a.set_title("work-precision: " + name)
         a.legend()
         a.grid(alpha=0.3, which="both")

@@ -1,12 +1,25 @@
 #!/usr/bin/env python3
 """Run-out error against wall time for the MPM mesh series (docs/figures/mpm_column_mesh_series.csv)."""
 import csv
+import os
 import sys
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+
+
+def save_png(fig, path, dpi):
+    """Write to path.tmp and rename, so that a failed plot leaves no partial PNG under path."""
+    tmp = path + ".tmp"
+    try:
+        fig.savefig(tmp, dpi=dpi, format="png")
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
 
 src = sys.argv[1] if len(sys.argv) > 1 else "docs/figures/mpm_column_mesh_series.csv"
 dst = sys.argv[2] if len(sys.argv) > 2 else "docs/figures/mpm_column_mesh_series.png"
@@ -20,18 +33,18 @@ for r in rows[:-1]:
 ax[0].plot([], [], "o", color="C0", label="granflow, H200")
 ax[0].plot([], [], "s", color="C1", label="paper's wall time for that grid (Taichi, RTX 4080)")
 ax[0].set_xlabel("wall time [s]")
-ax[0].set_ylabel("|run-out error| against the 1 mm run")
+ax[0].set_ylabel("|run-out error| against the 1 mm run [-]")
 ax[0].legend()
 ax[0].grid(True, which="both", alpha=0.3)
 h = [float(r["h_mm"]) for r in rows]
 ax[1].semilogx(h, [float(r["runout_m"]) for r in rows], "o-", label="granflow")
 ax[1].axhline(0.42, color="k", ls="--", label="paper, 1 mm (about 0.42 m)")
-ax[1].set_xlabel("grid spacing [mm]")
+ax[1].set_xlabel("grid spacing h [mm]")
 ax[1].set_ylabel("final run-out [m]")
 ax[1].invert_xaxis()
 ax[1].legend()
 ax[1].grid(True, which="both", alpha=0.3)
 fig.suptitle("Column collapse mesh series (phase transition, quadratic B-splines)")
 fig.tight_layout()
-fig.savefig(dst, dpi=110)
+save_png(fig, dst, 110)
 print("wrote", dst)

@@ -72,7 +72,7 @@ Agreement compare(const std::vector<Case>& cases) {
     const bool cutoff_differs = (id.flags ^ iff.flags) & info::kTensionCutoff;
     if (cutoff_differs) {
       // Whether a return at the pressure floor passes through zero pressure is decided on
-      // rounded values (two double builds differ there too: docs/benchmarks.md).
+      // rounded values (two double builds differ there too: docs/history.md).
       ++a.cutoff_mismatch;
       a.cutoff_mismatch_stress =
           std::fmax(a.cutoff_mismatch_stress, std::fmax(sd.sigma_f.norm(), double(sf.sigma_f.norm())));
@@ -148,7 +148,7 @@ TEST(FloatPrecision, SingleUpdatesAgreeWithDoubleOnMpmSizedIncrements) {
 // R1 only to a few times its tolerance; before, 5 float returns ended unconverged, one of them
 // 98 % away from double), raises no error flag of its own, and differs beyond the agreement
 // above in under 0.5 % of the cases (double on two platforms: 0.3-0.45 % of such cases differ,
-// docs/benchmarks.md).
+// docs/history.md).
 TEST(FloatPrecision, LargeIncrementsAreAsRobustAsDouble) {
   const Agreement a = compare(random_cases(20000, -1.0, 2));
   print("float vs double, |deps| <= 0.1", a);

@@ -136,8 +136,9 @@ TEST(MpmPhysics, FlumeFlowsWithAdmissibleVoidRatios) {
 
 // With the Table 3 column-collapse set the collisional stresses stay tiny in this flow
 // (T ~ 1e-5 m^2/s^2, K_col ~ 1e-4 at the surface), so both runs end within a fraction of a
-// percent of each other (docs/mpm.md has the numbers). Asserted: the frictional-only run does
-// not stop shorter than the phase-transition run (beyond 1 mm), and T rises then decays.
+// percent of each other (docs/benchmarks.md, "CPU twin", has the numbers). Asserted: the
+// frictional-only run does not stop shorter than the phase-transition run (beyond 1 mm), and T
+// rises then decays.
 TEST(MpmPhysics, FrictionalColumnRunsAtLeastAsFarAsPhaseTransition) {
   const RunSummary pt = run_quiet(make_setup(tiny_column(ModelKind::PhaseTransition)));
   const RunSummary fr = run_quiet(make_setup(tiny_column(ModelKind::Frictional)));

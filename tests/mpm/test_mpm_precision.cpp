@@ -51,7 +51,7 @@ constexpr Precision kReduced[] = {Precision::Mixed, Precision::FP32};
 }  // namespace
 
 // Run-out and height of the collapsed column agree with fp64 within 1 % (the collapse amplifies
-// round-off: GPU against CPU in double already differs by up to 1.5e-3, docs/benchmarks.md);
+// round-off: GPU against CPU in double already differs by up to 1.5e-3, docs/history.md);
 // every field stays finite; the stress after the consolidation stage agrees within 1 %.
 TEST(MpmPrecision, ColumnCollapseAgreesInMixedAndFp32) {
   const std::pair<ModelKind, ShapeKind> cases[] = {{ModelKind::PhaseTransition, ShapeKind::Linear},

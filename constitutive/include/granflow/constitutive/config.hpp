@@ -36,7 +36,7 @@ enum class StressIntegrator {
 // from the same state gives the result of one Full call bit for bit. The GPU's first G2P pass
 // runs ElasticOnly (without the return map's code it needs half the registers, and its warps do
 // not wait for a point whose return takes many iterations); a second pass runs Full on the
-// deferred points alone (docs/mpm.md, "GPU step").
+// deferred points alone (docs/mpm_gpu.md, "Split G2P").
 enum class UpdatePart { Full, ElasticOnly };
 
 enum class RestitutionUse {

@@ -1,7 +1,7 @@
-// Particle order for the GPU (docs/mpm.md, "GPU step"): particles are sorted by a key of the
-// lowest node of their stencil so that neighbours in memory are neighbours in space; P2G then
-// sums a block's contributions in a shared-memory tile (TileBox) and flushes each touched
-// node once. Written as GF_HD functions so the CPU tests check the same arithmetic.
+// Particle order for the GPU (docs/mpm_gpu.md, "Particles sorted by cell"): particles are sorted
+// by a key of the lowest node of their stencil so that neighbours in memory are neighbours in
+// space; P2G then sums a block's contributions in a shared-memory tile (TileBox) and flushes
+// each touched node once. Written as GF_HD functions so the CPU tests check the same arithmetic.
 //
 // Bookkeeping of a reordered particle buffer: slot i holds the particle of original index
 // ids[i] (the set-up's order); a sort with permutation perm moves slot perm[i] to slot i

@@ -190,7 +190,7 @@ inline StepResult Runner::advance(long nsteps, double dt, bool timing) {
   return step_result(advance_span(s));
 }
 
-// Fast paths of the CUDA backend, each with a switch for comparisons (docs/mpm.md, "GPU step").
+// Fast paths of the CUDA backend, each with a switch for comparisons (docs/mpm_gpu.md).
 struct CudaOptions {
   bool graphs = true;         // replay captured chunks of steps as CUDA graphs
   int graph_steps = 32;       // longest captured chunk (steps; rounded down to a power of two)
@@ -203,7 +203,7 @@ struct CudaOptions {
   int g2p_block = 128;        // threads per block of G2P + constitutive (at most 128 with the cap)
   bool g2p_reg_cap = false;   // G2P + constitutive with at most 168 registers (12 warps/SM, more spills)
   // G2P in two passes: kinematics and elastic updates, then the plastic returns of the deferred
-  // points packed together (no volumetric averaging; docs/mpm.md, "GPU step"). It pays where
+  // points packed together (no volumetric averaging; docs/mpm_gpu.md, "Split G2P"). It pays where
   // the step is throughput-bound and costs where it is latency-bound (a plastic point's path is
   // the elastic pass plus the whole update). H100: 3D slab (8e6 points) 9.6e8 instead of 8.1e8
   // particle-updates/s in fp32; 1 mm column (2.4 waves of the fused kernel) 126 instead of 131.5
