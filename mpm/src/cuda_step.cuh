@@ -20,6 +20,8 @@
 #include <cstdio>
 #include <string>
 
+#include <granflow/mpm/binning.hpp>
+
 #include "cuda_runner_class.cuh"
 #include "cuda_span.cuh"
 
