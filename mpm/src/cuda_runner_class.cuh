@@ -1,0 +1,138 @@
+// CUDA backend: the runner class. Its members are defined by responsibility in cuda_span.cuh,
+// cuda_step.cuh, cuda_particle_order.cuh, cuda_sampling.cuh and (buffers: allocation, release,
+// upload) cuda_runner_impl.cuh, which includes them all.
+#pragma once
+
+#include <cuda_runtime.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "cuda_launch_config.cuh"
+#include "runner_common.hpp"
+
+namespace granflow::mpm {
+namespace {
+
+struct SpanControl;  // cuda_span.cuh
+struct FieldList;    // cuda_sampling.cuh
+
+template <int D, class S, class Model, class Shape, bool kBoundary>
+class CudaRunner final : public Runner {
+  using G = GridLayout<D>;
+  using Lay = ParticleLayout<D, Model::kCollisional>;
+  static constexpr bool kColl = Model::kCollisional;
+  static constexpr int kElastic = elastic_min_blocks<typename Model::Scalar>(false);
+  static constexpr int kElasticCap = elastic_min_blocks<typename Model::Scalar>(true);
+
+ public:
+  CudaRunner(const SceneSetup& su, const CudaOptions& opt);
+  ~CudaRunner() override;
+
+  void set_stage(int stage, double damping, double flip) override {
+    stage_ = stage;
+    damping_ = damping;
+    flip_ = flip;
+  }
+
+  // cuda_span.cuh
+  StepResult step(double dt, bool want_dt_limit) override;
+  SpanResult advance_span(const Span& s) override;
+
+  // cuda_sampling.cuh
+  void frame(Frame& out, bool diagnostics, const std::vector<long>& subset) override;
+
+  void download(HostParticles& out) override { detail::unpack<D, S, kColl>(fetch_all(), n_, out); }
+  void upload(const HostParticles& in) override {
+    detail::check_upload(in, n_, D);
+    load(in);
+  }
+  PhaseTimes times() const override { return times_; }
+  void reset_times() override { times_ = PhaseTimes{}; }
+  std::string device() const override {
+    int dev = 0;
+    cudaGetDevice(&dev);
+    cudaDeviceProp prop;
+    cudaGetDeviceProperties(&prop, dev);
+    return std::string("CUDA ") + prop.name + " (sm_" + std::to_string(prop.major) + std::to_string(prop.minor) + ")";
+  }
+  std::string config() const override;  // cuda_step.cuh
+  long particles() const override { return n_; }
+  long nodes() const override { return sp_.grid.n_nodes; }
+
+ private:
+  enum { kP2G0, kGrid0, kG2P0, kG2P1, kSort0, kSort1, kSpan0, kSpan1, kNumEvents };
+
+  ParticleView<S> part_view() const { return ParticleView<S>{part_, n_}; }
+  bool split() const { return deferred_ != nullptr; }
+
+  // cuda_step.cuh
+  bool use_split();
+  void preload() const;
+  void enqueue_step(bool timed);
+
+  // cuda_particle_order.cuh
+  void enqueue_sort();
+
+  bool sort_due() const { return opt_.sort_every > 0 && since_sort_ >= opt_.sort_every; }
+
+  // Steps up to the next sort, at most `left`.
+  long chunk_limit(long left) const {
+    return opt_.sort_every > 0 ? std::min(left, static_cast<long>(opt_.sort_every) - since_sort_) : left;
+  }
+
+  // cuda_span.cuh
+  cudaGraphExec_t graph_for(int steps);
+  cudaGraphExec_t capture(int steps);
+  void run_queued(long nsteps);
+  void run_timed(long nsteps);
+
+  // cuda_sampling.cuh
+  const S* fetch(const FieldList& fl);
+  std::vector<S> fetch_all();
+
+  // cuda_runner_impl.cuh
+  void load(const HostParticles& hp);
+
+  StepParams<D, S, Model> sp_;
+  long n_;
+  CudaOptions opt_;
+  int key_bits_ = 32;
+  int stage_ = 0;
+  double damping_ = 0, flip_ = 0;
+  long since_sort_ = 0;
+  cudaStream_t stream_ = nullptr;
+  S* part_ = nullptr;              // particle fields (ParticleLayout), slots in sorted order
+  S* alt_ = nullptr;               // gather target of a sort; staging of downloads
+  S* grid_ = nullptr;
+  std::uint32_t* status_ = nullptr;
+  std::uint32_t* info_ = nullptr;  // per-slot update record (not reduced on the GPU yet)
+  std::uint32_t* ids_ = nullptr;   // original index of each slot
+  std::uint32_t* ids_alt_ = nullptr;
+  std::uint32_t* inv_ = nullptr;   // slot of each original index
+  std::uint32_t* deferred_ = nullptr;  // slots whose plastic return the split G2P deferred
+  unsigned* n_deferred_ = nullptr;     // their count (zeroed by the second pass)
+  double fused_waves_ = 0;             // n / (threads of the fused G2P kernel resident at once)
+  long* keys_ = nullptr;           // bin of each particle (volumetric averaging)
+  S* bins_ = nullptr;              // per-bin V and V tr L (volumetric averaging)
+  std::uint32_t* sort_buf_[4] = {nullptr, nullptr, nullptr, nullptr};  // keys in/out, slots in/out
+  unsigned char* sort_tmp_ = nullptr;
+  size_t sort_tmp_bytes_ = 0;
+  SpanControl* ctl_ = nullptr;
+  SpanControl* ctl_in_ = nullptr;  // pinned
+  SpanControl* ctl_out_ = nullptr; // pinned
+  S* host_ = nullptr;              // pinned download staging
+  long* sub_ids_ = nullptr;
+  S* sub_out_ = nullptr;
+  long sub_cap_ = 0;
+  std::vector<std::uint8_t*> masks_;
+  std::map<long, cudaGraphExec_t> graphs_;
+  cudaEvent_t ev_[kNumEvents];
+  PhaseTimes times_;
+};
+
+}  // namespace
+}  // namespace granflow::mpm

@@ -1,0 +1,408 @@
+// CUDA backend: one step, one kernel per phase, each calling the per-particle / per-node
+// functions of kernels.hpp that the CPU twin also uses (docs/mpm.md, "GPU step").
+// - P2G: per-particle atomics, or contributions of a warp's runs of particles sharing a stencil
+//   summed by shuffles first (warp), or additionally summed in a shared-memory tile of the
+//   block's stencil box and flushed once per node (tile; blocks whose box is too large fall
+//   back to warp).
+// - The grid kernel clears mass, momentum and force after using them, so no memset per step,
+//   and returns at once on nodes no particle reached.
+// - G2P: fused (kinematics and the whole constitutive update per thread), or split into a pass
+//   of kinematics and elastic updates that lists the plastic points and a pass of their full
+//   updates (CudaOptions::g2p_split; auto from two waves of the fused kernel up).
+// enqueue_step chooses the kernels; config reports the same choice with each kernel's registers
+// and occupancy.
+#pragma once
+
+#include <cuda_runtime.h>
+
+#include <algorithm>
+#include <climits>
+#include <cstdio>
+#include <string>
+
+#include <granflow/mpm/binning.hpp>
+
+#include "cuda_runner_class.cuh"
+#include "cuda_span.cuh"
+
+namespace granflow::mpm {
+namespace {
+
+// ---- P2G ---------------------------------------------------------------------------------
+
+enum P2GMode : int { kP2GAtomic = 0, kP2GWarp = 1, kP2GTile = 2 };  // CudaOptions::P2G
+
+// Contributions of the particles of a warp: lanes with the same stencil (same key, adjacent
+// after sorting) form a run; each run's contributions to each stencil node are summed by a
+// segmented shuffle reduction and its first lane hands the sum to `sink`. Every lane of the
+// warp must call this (invalid lanes: valid = false).
+template <int D, class S, class Shape, class Sink>
+__device__ __forceinline__ void scatter_warp(const P2GParticle<D, S>& q, const int* base, long key, bool valid,
+                                             S inv_h, Sink&& sink) {
+  constexpr int NC = 1 + 2 * D;
+  const int lane = threadIdx.x & 31;
+  const long prev = __shfl_up_sync(kFullMask, key, 1);
+  const bool head = lane == 0 || prev != key;
+  const unsigned heads = __ballot_sync(kFullMask, head);
+  const int run_end = run_end_lane(heads, lane);  // first lane after my run
+  int max_len = run_end - lane;
+  for (int o = 16; o > 0; o >>= 1) max_len = max(max_len, __shfl_xor_sync(kFullMask, max_len, o));
+  for (int k = 0; k < stencil_size<D, Shape::K>(); ++k) {
+    int I[D];
+    stencil_node<D, Shape::K>(base, k, I);
+    S c[NC];
+    if (valid) {
+      p2g_contribution<D, S, Shape>(q, I, inv_h, c);
+    } else {
+      for (int f = 0; f < NC; ++f) c[f] = S(0);
+    }
+    for (int o = 1; o < max_len; o <<= 1)
+      for (int f = 0; f < NC; ++f) {
+        const S other = __shfl_down_sync(kFullMask, c[f], o);
+        if (lane + o < run_end) c[f] += other;
+      }
+    if (head && valid) sink(I, c);
+  }
+}
+
+// Contribution order: c[0] mass, c[1..D] momentum, c[1+D..2D] force, which are the grid
+// fields 0..2D of GridLayout.
+template <int D, class S, class Model, class Shape, int kMode>
+__global__ void __launch_bounds__(kP2GBlock, p2g_min_blocks<S>())
+    p2g_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp, const SpanControl* ctl,
+               long* bin_keys) {
+  static_assert(GridLayout<D>::M == 0 && GridLayout<D>::P == 1 && GridLayout<D>::F == 1 + D, "field order");
+  constexpr int NC = 1 + 2 * D;
+  constexpr int K = Shape::K;
+  if (!ctl->active) return;
+  const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  const bool valid = p < pv.n;
+  P2GParticle<D, S> q{};
+  int base[D] = {};
+  if (valid) {
+    q = p2g_load<D, S, Model>(pv, p, sp);
+    stencil_base<D, S, Shape>(q.xi, sp.grid, base);  // G2P of the last step checked it is on the grid
+    if (bin_keys) bin_keys[p] = sp.grid.linear(base);  // bin of the particle (volumetric averaging)
+  }
+  auto to_global = [&](const int* I, const S* c) {
+    const long n = sp.grid.linear(I);
+    for (int f = 0; f < NC; ++f) atomicAdd(&gv.f(f, n), c[f]);
+  };
+  if constexpr (kMode == kP2GAtomic) {
+    if (!valid) return;
+    for (int k = 0; k < stencil_size<D, K>(); ++k) {
+      int I[D];
+      stencil_node<D, K>(base, k, I);
+      S c[NC];
+      p2g_contribution<D, S, Shape>(q, I, sp.grid.inv_h, c);
+      to_global(I, c);
+    }
+  } else {
+    const long key = valid ? sp.grid.linear(base) : -1 - static_cast<long>(threadIdx.x);
+    if constexpr (kMode == kP2GWarp) {
+      scatter_warp<D, S, Shape>(q, base, key, valid, sp.grid.inv_h, to_global);
+    } else {
+      constexpr int TN = tile_nodes<D>();
+      __shared__ int s_lo[D], s_hi[D];
+      __shared__ S s_tile[NC * TN];
+      if (threadIdx.x < D) {
+        s_lo[threadIdx.x] = INT_MAX;
+        s_hi[threadIdx.x] = INT_MIN;
+      }
+      __syncthreads();
+      if (valid)
+        for (int d = 0; d < D; ++d) {
+          atomicMin(&s_lo[d], base[d]);
+          atomicMax(&s_hi[d], base[d]);
+        }
+      __syncthreads();
+      TileBox<D, K> box;
+      box.set(s_lo, s_hi);
+      const long nt = box.size(TN);
+      if (nt < 0) {  // the block's particles are spread out (unsorted, or a strip's end): no tile
+        scatter_warp<D, S, Shape>(q, base, key, valid, sp.grid.inv_h, to_global);
+        return;
+      }
+      for (int j = threadIdx.x; j < nt; j += blockDim.x)
+        for (int f = 0; f < NC; ++f) s_tile[f * TN + j] = S(0);
+      __syncthreads();
+      scatter_warp<D, S, Shape>(q, base, key, valid, sp.grid.inv_h, [&](const int* I, const S* c) {
+        const int j = box.local(I);
+        for (int f = 0; f < NC; ++f) atomicAdd(&s_tile[f * TN + j], c[f]);
+      });
+      __syncthreads();
+      for (int j = threadIdx.x; j < nt; j += blockDim.x) {
+        int I[D];
+        box.node(j, I);
+        const long n = sp.grid.linear(I);
+        for (int f = 0; f < NC; ++f) {
+          const S v = s_tile[f * TN + j];
+          if (v != S(0)) atomicAdd(&gv.f(f, n), v);
+        }
+      }
+    }
+  }
+}
+
+// ---- grid update -------------------------------------------------------------------------
+
+// A node with zero mass received only zero-weight contributions (N = 0 implies grad N = 0 for
+// both shapes), so its momentum and force are zero too and G2P weighs its velocities by zero:
+// nothing to do. Other nodes are updated and their mass, momentum and force cleared for the
+// next P2G (the grid starts zeroed).
+template <int D, class S, class Model, bool kBoundary>
+__global__ void grid_kernel(GridView<S> gv, StepParams<D, S, Model> sp0, const SpanControl* ctl) {
+  if (!ctl->active) return;
+  const long I = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  if (I >= gv.n) return;
+  if (gv.f(GridLayout<D>::M, I) == S(0)) return;
+  const StepParams<D, S, Model> sp = with_span(sp0, ctl);
+  grid_update_node<D, S, Model, kBoundary>(gv, I, sp);
+  for (int f = 0; f < 1 + 2 * D; ++f) gv.f(f, I) = S(0);
+}
+
+// ---- G2P ---------------------------------------------------------------------------------
+
+template <int D, class S, class Model, class Shape, int kMaxThreads, int kMinBlocks>
+__global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
+    g2p_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp0, SpanControl* ctl,
+               const std::uint32_t* ids, std::uint32_t* upd_info) {
+  if (!ctl->active) return;
+  const StepParams<D, S, Model> sp = with_span(sp0, ctl);
+  const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  S lim = S(1e300);
+  if (p < pv.n) {
+    const std::uint32_t st = g2p_particle<D, S, Model, Shape>(pv, gv, p, sp, &lim, &upd_info[p]);
+    if (st) atomicMin(&ctl->bad, pack_bad(ids[p], st));
+  }
+  finish_step(ctl, double(lim), sp.want_dt_limit);
+}
+
+// G2P split in two passes (CudaOptions::g2p_split). The first does the kinematics and the
+// elastic part of every update (UpdatePart::ElasticOnly: half the registers of the full update)
+// and lists the points whose step is plastic; the second runs the full update of the listed
+// points only, packed into warps, so that elastic points wait for no return map and a warp's
+// returns are of points that all need one. Each point gets the fused kernel's update (test
+// PhaseTransition.ElasticOnlyUpdateIsTheFullUpdateOrDefersPlasticSteps).
+template <int D, class S, class Model, class Shape, int kMinBlocks>
+__global__ void __launch_bounds__(kSplitBlock, kMinBlocks)
+    g2p_elastic_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp0, SpanControl* ctl,
+                       const std::uint32_t* ids, std::uint32_t* upd_info, std::uint32_t* deferred,
+                       unsigned* n_deferred) {
+  if (!ctl->active) return;
+  const StepParams<D, S, Model> sp = with_span(sp0, ctl);
+  const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  S lim = S(1e300);
+  bool defer = false;
+  if (p < pv.n) {
+    const std::uint32_t st =
+        g2p_particle<D, S, Model, Shape, UpdatePart::ElasticOnly>(pv, gv, p, sp, &lim, &upd_info[p]);
+    defer = st == kDeferredPoint;
+    if (st && !defer) atomicMin(&ctl->bad, pack_bad(ids[p], st));
+  }
+  // one atomic per warp for its deferred points
+  const unsigned mask = __ballot_sync(kFullMask, defer);
+  if (mask) {
+    const int lane = threadIdx.x & 31;
+    const int leader = __ffs(mask) - 1;
+    unsigned base = 0;
+    if (lane == leader) base = atomicAdd(n_deferred, static_cast<unsigned>(__popc(mask)));
+    base = __shfl_sync(kFullMask, base, leader);
+    if (defer) deferred[base + __popc(mask & ((1u << lane) - 1u))] = static_cast<std::uint32_t>(p);
+  }
+  if (sp.want_dt_limit) reduce_dt_limit(ctl, double(lim));
+}
+
+template <int D, class S, class Model, int kMaxThreads, int kMinBlocks>
+__global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
+    g2p_plastic_kernel(ParticleView<S> pv, StepParams<D, S, Model> sp0, SpanControl* ctl, const std::uint32_t* ids,
+                       std::uint32_t* upd_info, const std::uint32_t* deferred, unsigned* n_deferred) {
+  if (!ctl->active) return;
+  const StepParams<D, S, Model> sp = with_span(sp0, ctl);
+  const long i = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  S lim = S(1e300);
+  if (i < static_cast<long>(*n_deferred)) {
+    const long p = deferred[i];
+    const std::uint32_t st = constitutive_particle<D, S, Model>(pv, p, sp, S(NAN), &lim, &upd_info[p]);
+    if (st) atomicMin(&ctl->bad, pack_bad(ids[p], st));
+  }
+  finish_step(ctl, double(lim), sp.want_dt_limit, n_deferred);
+}
+
+// Split G2P for volumetric averaging: kinematics and bin sums, then the constitutive update.
+template <int D, class S, class Model, class Shape>
+__global__ void g2p_kinematics_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp0,
+                                      SpanControl* ctl, const std::uint32_t* ids, const long* keys, S* bin_v,
+                                      S* bin_vtr, std::uint32_t* status) {
+  if (!ctl->active) return;
+  const StepParams<D, S, Model> sp = with_span(sp0, ctl);
+  const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  if (p >= pv.n) return;
+  const std::uint32_t st = g2p_kinematics<D, S, Model, Shape>(pv, gv, p, sp);
+  status[p] = st;
+  if (st) {
+    atomicMin(&ctl->bad, pack_bad(ids[p], st));
+    return;
+  }
+  S V, tr;
+  volumetric_rate<D, S, Model>(pv, p, sp, V, tr);
+  atomicAdd(&bin_v[keys[p]], V);
+  atomicAdd(&bin_vtr[keys[p]], V * tr);
+}
+
+template <int D, class S, class Model, int kMaxThreads, int kMinBlocks>
+__global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
+    constitutive_kernel(ParticleView<S> pv, StepParams<D, S, Model> sp0, SpanControl* ctl, const std::uint32_t* ids,
+                        const long* keys, const S* bin_v, const S* bin_vtr, std::uint32_t* status,
+                        std::uint32_t* upd_info) {
+  if (!ctl->active) return;
+  const StepParams<D, S, Model> sp = with_span(sp0, ctl);
+  const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  S lim = S(1e300);
+  if (p < pv.n && status[p] == 0) {  // else the kinematics already failed here
+    const long b = keys[p];
+    const S tr_bar = bin_v[b] > S(0) ? bin_vtr[b] / bin_v[b] : S(0);
+    const std::uint32_t st = constitutive_particle<D, S, Model>(pv, p, sp, tr_bar, &lim, &upd_info[p]);
+    status[p] = st;
+    if (st) atomicMin(&ctl->bad, pack_bad(ids[p], st));
+  }
+  finish_step(ctl, double(lim), sp.want_dt_limit);
+}
+
+// ---- the runner's step -------------------------------------------------------------------
+
+// Split G2P: as asked, or (auto) from two waves of the fused kernel up, where the step is
+// throughput-bound rather than bound by one point's latency.
+template <int D, class S, class Model, class Shape, bool kBoundary>
+inline bool CudaRunner<D, S, Model, Shape, kBoundary>::use_split() {
+  if (opt_.g2p_split != CudaOptions::Split::Auto) return opt_.g2p_split == CudaOptions::Split::On;
+  int dev = 0, sms = 0, per_sm = 0;
+  check(cudaGetDevice(&dev), "cudaGetDevice");
+  check(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev), "SM count");
+  if (opt_.g2p_reg_cap)
+    check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, g2p_kernel<D, S, Model, Shape, 128, 3>,
+                                                        opt_.g2p_block, 0), "occupancy");
+  else
+    check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, g2p_kernel<D, S, Model, Shape, 256, 1>,
+                                                        opt_.g2p_block, 0), "occupancy");
+  fused_waves_ = double(n_) / (double(sms) * std::max(1, per_sm) * opt_.g2p_block);
+  return fused_waves_ >= 2.0;
+}
+
+// Loads the step kernels now (lazy module loading would otherwise load them during the
+// first graph capture, which older drivers refuse).
+template <int D, class S, class Model, class Shape, bool kBoundary>
+inline void CudaRunner<D, S, Model, Shape, kBoundary>::preload() const {
+  cudaFuncAttributes a;
+  const void* k[] = {reinterpret_cast<const void*>(p2g_kernel<D, S, Model, Shape, kP2GAtomic>),
+                     reinterpret_cast<const void*>(p2g_kernel<D, S, Model, Shape, kP2GWarp>),
+                     reinterpret_cast<const void*>(p2g_kernel<D, S, Model, Shape, kP2GTile>),
+                     reinterpret_cast<const void*>(grid_kernel<D, S, Model, kBoundary>),
+                     reinterpret_cast<const void*>(g2p_kernel<D, S, Model, Shape, 256, 1>),
+                     reinterpret_cast<const void*>(g2p_kernel<D, S, Model, Shape, 128, 3>),
+                     reinterpret_cast<const void*>(g2p_kinematics_kernel<D, S, Model, Shape>),
+                     reinterpret_cast<const void*>(constitutive_kernel<D, S, Model, 256, 1>),
+                     reinterpret_cast<const void*>(constitutive_kernel<D, S, Model, 128, 3>),
+                     reinterpret_cast<const void*>(g2p_elastic_kernel<D, S, Model, Shape, kElastic>),
+                     reinterpret_cast<const void*>(g2p_elastic_kernel<D, S, Model, Shape, kElasticCap>),
+                     reinterpret_cast<const void*>(g2p_plastic_kernel<D, S, Model, 256, 1>)};
+  for (const void* f : k) check(cudaFuncGetAttributes(&a, f), "load kernels");
+}
+
+// Queues one step (kernels only: capturable).
+template <int D, class S, class Model, class Shape, bool kBoundary>
+inline void CudaRunner<D, S, Model, Shape, kBoundary>::enqueue_step(bool timed) {
+  const long nn = sp_.grid.n_nodes;
+  const ParticleView<S> pv = part_view();
+  const GridView<S> gv{grid_, nn, masks_[stage_]};
+  const unsigned pb = blocks_for(n_, kP2GBlock);
+  const unsigned gb = blocks_for(nn, kGridBlock);
+  const unsigned cb = blocks_for(n_, opt_.g2p_block);
+  long* bk = sp_.vol_avg ? keys_ : nullptr;
+  if (timed) cudaEventRecord(ev_[kP2G0], stream_);
+  switch (opt_.p2g) {
+    case CudaOptions::P2G::Atomic:
+      p2g_kernel<D, S, Model, Shape, kP2GAtomic><<<pb, kP2GBlock, 0, stream_>>>(pv, gv, sp_, ctl_, bk);
+      break;
+    case CudaOptions::P2G::Warp:
+      p2g_kernel<D, S, Model, Shape, kP2GWarp><<<pb, kP2GBlock, 0, stream_>>>(pv, gv, sp_, ctl_, bk);
+      break;
+    case CudaOptions::P2G::Tile:
+      p2g_kernel<D, S, Model, Shape, kP2GTile><<<pb, kP2GBlock, 0, stream_>>>(pv, gv, sp_, ctl_, bk);
+      break;
+  }
+  if (timed) cudaEventRecord(ev_[kGrid0], stream_);
+  grid_kernel<D, S, Model, kBoundary><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
+  if (timed) cudaEventRecord(ev_[kG2P0], stream_);
+  if (split()) {
+    const unsigned eb = blocks_for(n_, kSplitBlock);
+    if (opt_.g2p_reg_cap)
+      g2p_elastic_kernel<D, S, Model, Shape, kElasticCap>
+          <<<eb, kSplitBlock, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, info_, deferred_, n_deferred_);
+    else
+      g2p_elastic_kernel<D, S, Model, Shape, kElastic>
+          <<<eb, kSplitBlock, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, info_, deferred_, n_deferred_);
+    g2p_plastic_kernel<D, S, Model, 256, 1><<<cb, opt_.g2p_block, 0, stream_>>>(
+        pv, sp_, ctl_, ids_, info_, deferred_, n_deferred_);
+  } else if (!sp_.vol_avg) {
+    if (opt_.g2p_reg_cap)
+      g2p_kernel<D, S, Model, Shape, 128, 3><<<cb, opt_.g2p_block, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, info_);
+    else
+      g2p_kernel<D, S, Model, Shape, 256, 1><<<cb, opt_.g2p_block, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, info_);
+  } else {
+    check(cudaMemsetAsync(bins_, 0, sizeof(S) * 2 * nn, stream_), "clear bins");
+    g2p_kinematics_kernel<D, S, Model, Shape><<<pb, kP2GBlock, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, keys_, bins_,
+                                                                             bins_ + nn, status_);
+    if (opt_.g2p_reg_cap)
+      constitutive_kernel<D, S, Model, 128, 3><<<cb, opt_.g2p_block, 0, stream_>>>(
+          pv, sp_, ctl_, ids_, keys_, bins_, bins_ + nn, status_, info_);
+    else
+      constitutive_kernel<D, S, Model, 256, 1><<<cb, opt_.g2p_block, 0, stream_>>>(
+          pv, sp_, ctl_, ids_, keys_, bins_, bins_ + nn, status_, info_);
+  }
+  if (timed) cudaEventRecord(ev_[kG2P1], stream_);
+}
+
+template <int D, class S, class Model, class Shape, bool kBoundary>
+inline std::string CudaRunner<D, S, Model, Shape, kBoundary>::config() const {
+  std::string s = "CUDA options: " + describe(opt_) + "\n";
+  if (opt_.g2p_split == CudaOptions::Split::Auto && !sp_.vol_avg) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "  G2P: %s (the fused kernel would run %.2f waves; split from 2)\n",
+                  split() ? "split" : "fused", fused_waves_);
+    s += buf;
+  }
+  const char* p2g_name = opt_.p2g == CudaOptions::P2G::Atomic ? "P2G (atomic)"
+                         : opt_.p2g == CudaOptions::P2G::Warp ? "P2G (warp)"
+                                                              : "P2G (tile)";
+  if (opt_.p2g == CudaOptions::P2G::Atomic)
+    s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GAtomic>, kP2GBlock);
+  else if (opt_.p2g == CudaOptions::P2G::Warp)
+    s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GWarp>, kP2GBlock);
+  else
+    s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GTile>, kP2GBlock);
+  s += kernel_info("grid update", grid_kernel<D, S, Model, kBoundary>, kGridBlock);
+  if (split()) {
+    if (opt_.g2p_reg_cap)
+      s += kernel_info("G2P + elastic part", g2p_elastic_kernel<D, S, Model, Shape, kElasticCap>, kSplitBlock);
+    else
+      s += kernel_info("G2P + elastic part", g2p_elastic_kernel<D, S, Model, Shape, kElastic>, kSplitBlock);
+    s += kernel_info("plastic return of the deferred points", g2p_plastic_kernel<D, S, Model, 256, 1>,
+                     opt_.g2p_block);
+  } else if (!sp_.vol_avg) {
+    if (opt_.g2p_reg_cap)
+      s += kernel_info("G2P + constitutive", g2p_kernel<D, S, Model, Shape, 128, 3>, opt_.g2p_block);
+    else
+      s += kernel_info("G2P + constitutive", g2p_kernel<D, S, Model, Shape, 256, 1>, opt_.g2p_block);
+  } else {
+    s += kernel_info("G2P kinematics", g2p_kinematics_kernel<D, S, Model, Shape>, kP2GBlock);
+    if (opt_.g2p_reg_cap)
+      s += kernel_info("constitutive", constitutive_kernel<D, S, Model, 128, 3>, opt_.g2p_block);
+    else
+      s += kernel_info("constitutive", constitutive_kernel<D, S, Model, 256, 1>, opt_.g2p_block);
+  }
+  return s;
+}
+
+}  // namespace
+}  // namespace granflow::mpm
