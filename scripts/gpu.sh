@@ -174,13 +174,17 @@ part_build() {
 }
 
 part_check() {
+  local rc1 rc2
   nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm --format=csv,noheader 2>&1 | head -1 | tee -a "$log"
   x 60 "$R/device_host.txt" "$B/tests/cuda/constitutive_device_host"
-  echo "  constitutive_device_host: exit code $? (0: all OK)"
+  rc1=$?
+  echo "  constitutive_device_host: exit code $rc1 (0: all OK)"
   tail -3 "$R/device_host.txt"
   x 170 "$R/cuda_check.txt" env OMP_NUM_THREADS=8 "$B/mpm_cuda_check" --short
-  echo "  mpm_cuda_check --short: exit code $? (0: all OK; run-out/height within 0.5 %, points in original order)"
+  rc2=$?
+  echo "  mpm_cuda_check --short: exit code $rc2 (0: all OK; 77: no GPU; run-out/height within 0.5 %, points in original order)"
   grep -E "OK|FAIL" "$R/cuda_check.txt" | cut -c1-160
+  [ $rc1 -eq 0 ] && [ $rc2 -eq 0 ]
 }
 
 part_paper() {
@@ -288,7 +292,7 @@ part_sanitize() {
   local cs
   cs=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer 2>/dev/null | head -1)
   [ -n "$cs" ] || { echo "compute-sanitizer not found" | tee -a "$log"; return 1; }
-  local ci=$SC/column_collapse_ci.toml cfg label args scene tool
+  local ci=$SC/column_collapse_ci.toml cfg label args scene tool rc failed=0
   for cfg in "default|$ci|" "default|$SC/column_collapse_ci_frictional.toml|" \
              "volumetric averaging|$ci|--set solver.volumetric_averaging=true" "default|$SC/flume_ci.toml|" \
              "sort+tile|$ci|--sort 8 --p2g tile" "sort+tile|$SC/flume_ci.toml|--sort 8 --p2g tile" \
@@ -299,10 +303,13 @@ part_sanitize() {
       # shellcheck disable=SC2086  # args are words
       x 150 "$R/san.txt" "$cs" --tool $tool --error-exitcode 9 "$G" mpm "$scene" --backend "$BACKEND" $args \
         --stop-after 0.07 --out "$R/san" --force --no-png --quiet
-      echo "  $tool $label $(basename "$scene"): exit $? | $(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY' "$R/san.txt" | head -1)" |
+      rc=$?
+      [ $rc -eq 0 ] || failed=1
+      echo "  $tool $label $(basename "$scene"): exit $rc | $(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY' "$R/san.txt" | head -1)" |
         tee -a "$log"
     done
   done
+  return $failed
 }
 
 part_3d() {
@@ -323,14 +330,18 @@ main() {
     return 2
   fi
   local part fn f t0 status=0
+  for part in "$@"; do
+    case $part in
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d)" >&2
+         return 2 ;;
+    esac
+  done
   mkdir -p "$RES" "$RUNS" || return 1
   for part in "$@"; do
     case $part in
-      build | check | paper | perf | profile | sanitize | 3d) fn=part_$part ;;
-      series-column | series-flume | series-fine) fn=part_${part//-/_} ;;
       series) fn="part_series_column part_series_flume part_series_fine" ;;
-      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d)" >&2
-         return 2 ;;
+      *) fn=part_${part//-/_} ;;
     esac
     if [ "$part" != build ] && { [ ! -x "$G" ] || [ ! -x "$B/mpm_cuda_check" ]; }; then
       log=$RES/build.log R=$RUNS/build
