@@ -75,14 +75,19 @@ bool is_parameter_set_key(const std::vector<KeyPart>& parts) {
 // strict reader's messages point to it and not to a line of the file. A bare word is a string.
 toml::table parse_value(const std::string& value, const std::string& origin, const std::string& who) {
   if (trim(value).empty()) throw InputError(who + "no value after '='");
+  const bool bare_word = value.find_first_of("\"'[]{}=#\\ \t\r\n") == std::string::npos;
   toml::table t;
   try {
     t = toml::parse("v = " + value, std::string_view(origin));
   } catch (const toml::parse_error& e) {
-    if (value.find_first_of("\"'[]{}=#\\ \t\r\n") != std::string::npos)
-      throw InputError(who + "not a TOML value (" + std::string(e.description()) +
-                       "); strings with spaces need quotes, e.g. name=\"my run\"");
-    t = toml::parse("v = \"" + value + "\"", std::string_view(origin));
+    const std::string why = "not a TOML value (" + std::string(e.description()) +
+                            "); strings with spaces need quotes, e.g. name=\"my run\"";
+    if (!bare_word) throw InputError(who + why);
+    try {
+      t = toml::parse("v = \"" + value + "\"", std::string_view(origin));
+    } catch (const toml::parse_error&) {  // e.g. a control character
+      throw InputError(who + why);
+    }
   }
   if (t.size() != 1 || !t.contains("v")) throw InputError(who + "VALUE must be one TOML value");
   return t;

@@ -288,6 +288,7 @@ TEST(MpmOverrides, BadOverridesAreRefusedNamingTheSet) {
       {{"grid..h=1"}, "", {"expected KEY=VALUE"}},
       {{"grid.h="}, "", {"--set 'grid.h=': no value after '='"}},
       {{"name=my run"}, "", {"--set 'name=my run': not a TOML value", "need quotes"}},
+      {{"name=a\x01" "b"}, "", {"not a TOML value"}},
       {{"stage[2].duration=1"}, "", {"--set 'stage[2].duration=1': the scene has 2 [[stage]] tables (stage[0] to stage[1])"}},
       {{"stage.duration=1"}, "", {"'stage' is an array of tables: give an index, e.g. stage[0].duration"}},
       {{"grid.h.x=1"}, "", {"'grid.h' is a value, not a table"}},
