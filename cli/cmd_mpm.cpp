@@ -32,32 +32,57 @@ namespace {
 namespace fs = std::filesystem;
 
 // precision: "" keeps the scene's solver.precision; fp64 | mixed | fp32 overrides it.
-mpm::SceneSetup setup_from_file(const std::string& file, const std::string& precision = "") {
-  mpm::Scene sc = mpm::load_scene(file);
+mpm::SceneSetup setup_from_file(const std::string& file, const mpm::SceneOverrides& overrides,
+                                const std::string& precision) {
+  mpm::Scene sc = mpm::load_scene(file, overrides);
   if (!precision.empty()) mpm::parse_precision(precision, sc.precision);
-  try {
-    return mpm::make_setup(sc);
-  } catch (const mpm::SceneError& e) {
-    // the line of the key, else of the table holding it ("body[0].min" -> "body[0]")
-    long line = 0;
-    for (std::string k = e.key(); !k.empty() && line == 0;) {
-      const auto it = sc.lines.find(k);
-      if (it != sc.lines.end()) line = it->second;
-      const auto cut = k.find_last_of(".[");
-      k = cut == std::string::npos ? "" : k.substr(0, cut);
-    }
-    throw io::InputError(io::where(file, line) + "'" + e.key() + "': " + (e.what() + e.key().size() + 2));
-  }
+  return mpm::make_setup_for_file(sc);
 }
 
-// What a checkpoint must have been written for: the scene file's bytes and the parameter
-// set's values (as granflow writes them, so comments and layout do not count).
+// What a checkpoint must have been written for: the scene file's bytes, the parameter set's
+// values (as granflow writes them, so comments and layout do not count; --params picks the
+// set) and the --set overrides as given.
 std::uint64_t scene_hash(const mpm::Scene& sc) {
   std::ifstream in(sc.file, std::ios::binary);
   std::ostringstream text;
   text << in.rdbuf();
   const std::uint64_t h = mpm::fnv1a(text.str());
-  return mpm::fnv1a(io::format_parameter_set(io::load_parameter_set(sc.material.name)), h);
+  std::uint64_t hash = mpm::fnv1a(io::format_parameter_set(io::load_parameter_set(sc.material.name)), h);
+  for (const auto& a : sc.overrides) hash = mpm::fnv1a("--set " + a, hash);
+  return hash;
+}
+
+// A word as the shell reads it back: quoted unless it is plain.
+std::string shell_word(const std::string& w) {
+  if (!w.empty() && w.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-+=.,/:@%") ==
+                        std::string::npos)
+    return w;
+  std::string q = "'";
+  for (char c : w) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+// --params and --set as given, for a command line to print.
+std::string override_args(const mpm::SceneOverrides& ov) {
+  std::string s;
+  if (!ov.params.empty()) s += " --params " + shell_word(ov.params);
+  for (const auto& a : ov.sets) s += " --set " + shell_word(a);
+  return s;
+}
+
+// --params and --set: the same options for granflow mpm and granflow bench mpm.
+void add_override_options(CLI::App* cmd, mpm::SceneOverrides& ov) {
+  cmd->add_option("--params", ov.params,
+                  "parameter set instead of the scene's material.parameters: a name under data/params or a TOML "
+                  "file (as granflow element --params)");
+  cmd->add_option("--set", ov.sets,
+                  "override one value, KEY=VALUE (repeatable, applied in order). KEY in a parameter set's table "
+                  "(frictional., collisional., initial., numerics.) changes the material's set, e.g. "
+                  "frictional.phi_c_deg=30; any other KEY is a scene key, checked as in the file, e.g. "
+                  "grid.h=0.0025, time.dt=5e-5, time.adaptive=true, material.model=frictional, "
+                  "solver.precision=fp32, stage[1].duration=0.5 ([i]: entry i of an array of tables). VALUE is "
+                  "a TOML value; a bare word is a string")
+      ->allow_extra_args(false);  // one value per --set: the scene argument is never taken as one
 }
 
 // Set by SIGINT/SIGTERM; the time loop polls it after every step.
@@ -126,6 +151,21 @@ std::string locate_plot_script() {
   return "";
 }
 
+// Time per step by phase (timed steps) and on the device (spans), and the share of the split
+// G2P's plastic pass: the figures that scripts/gpu.sh reads from a run's summary.
+void print_step_times(const mpm::RunSummary& s, long particles, const std::string& backend_options) {
+  if (s.steps <= 0) return;
+  const mpm::PhaseTimes& t = s.times;
+  if (t.steps > 0)
+    std::printf("kernel time per step: P2G %.2f us, grid %.2f us, G2P + constitutive %.2f us; wall per step %.2f us\n",
+                1e6 * t.p2g / t.steps, 1e6 * t.grid / t.steps, 1e6 * t.g2p / t.steps, 1e6 * s.wall_s / s.steps);
+  if (t.span_steps > 0)
+    std::printf("device time per step (spans): %.2f us; wall per step %.2f us; %s\n", 1e6 * t.device / t.span_steps,
+                1e6 * s.wall_s / s.steps, backend_options.c_str());
+  if (t.deferred > 0)
+    std::printf("plastic returns (second G2P pass): %.1f %% of the updates\n", 100.0 * t.deferred_share(particles));
+}
+
 struct MpmOptions {
   std::string scene, out, backend = "cpu", png_fields = "p,T,eps_pd", precision;
   bool force = false, no_png = false, quiet = false, restart = false;
@@ -133,6 +173,7 @@ struct MpmOptions {
   double checkpoint_every = -1;  // > 0 overrides output.checkpoint_dt
   long span = 10000;
   CudaFlags cuda;
+  mpm::SceneOverrides overrides;
 };
 
 // --restart: the checkpoint in `out`, read and checked against the scene (input errors).
@@ -161,7 +202,7 @@ mpm::Checkpoint load_restart(const MpmOptions& o, const std::string& out, const 
 }
 
 void run_mpm(const MpmOptions& o) {
-  const mpm::SceneSetup su = setup_from_file(o.scene, o.precision);
+  const mpm::SceneSetup su = setup_from_file(o.scene, o.overrides, o.precision);
   std::string out = o.out;
   if (out.empty()) out = "mpm_out/" + fs::path(o.scene).stem().string();
   std::uint64_t hash = scene_hash(su.scene);
@@ -209,7 +250,7 @@ void run_mpm(const MpmOptions& o) {
   }
   if (s.interrupted) {
     const int sig = s.interrupted;
-    std::string again = "granflow mpm " + o.scene + " --out " + out + " --restart";
+    std::string again = "granflow mpm " + o.scene + " --out " + out + " --restart" + override_args(o.overrides);
     if (o.backend != "cpu") again += " --backend " + o.backend;
     if (!o.precision.empty()) again += " --precision " + o.precision;
     if (o.checkpoint_every > 0) {
@@ -228,6 +269,7 @@ void run_mpm(const MpmOptions& o) {
               runner->particles(), s.steps, s.t_end, s.wall_s);
   std::printf("precision: %s\n", mpm::precision_name(sc.precision));
   std::printf("particle-updates/s: %.4g\n", s.wall_s > 0 ? runner->particles() * double(s.steps) / s.wall_s : 0.0);
+  print_step_times(s, runner->particles(), o.backend == "cuda" ? mpm::describe(o.cuda.options()) : "CPU twin");
   if (s.consolidation.done)
     std::printf("after stage 1: base sigma_v %.1f Pa vs rho g h %.1f Pa; max |sigma_v/(rho g z) - 1| = %.3f "
                 "(middle half of the body, below the top cell)\n",
@@ -266,12 +308,13 @@ struct BenchOptions {
   std::string scene, backend = "cpu", loop = "span", precision;
   long steps = 200, warmup = 20, split = 100;
   CudaFlags cuda;
+  mpm::SceneOverrides overrides;
 };
 
 void bench_mpm(const BenchOptions& o) {
   using Clock = std::chrono::steady_clock;
   const auto t_setup = Clock::now();
-  const mpm::SceneSetup su = setup_from_file(o.scene, o.precision);
+  const mpm::SceneSetup su = setup_from_file(o.scene, o.overrides, o.precision);
   const double setup_s = std::chrono::duration<double>(Clock::now() - t_setup).count();
   const auto t_runner = Clock::now();
   auto r = make_runner(su, o.backend, o.cuda);
@@ -312,6 +355,7 @@ void register_mpm(CLI::App& app) {
   cmd->add_option("--png-fields", o->png_fields, "fields of the PNG snapshots (comma separated)");
   cmd->add_option("--precision", o->precision, "fp64, mixed or fp32: overrides the scene's solver.precision")
       ->check(CLI::IsMember({"fp64", "mixed", "fp32"}));
+  add_override_options(cmd, o->overrides);
   cmd->add_flag("--no-png", o->no_png, "do not call scripts/plot_mpm.py");
   cmd->add_flag("--quiet", o->quiet, "no progress line");
   cmd->add_option("--span", o->span, "most steps queued without a host round-trip (1: one per step)")
@@ -333,6 +377,7 @@ void register_bench_mpm(CLI::App& bench) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--precision", o->precision, "fp64, mixed or fp32: overrides the scene's solver.precision")
       ->check(CLI::IsMember({"fp64", "mixed", "fp32"}));
+  add_override_options(cmd, o->overrides);
   o->cuda.add(cmd);
   cmd->callback([o] { bench_mpm(*o); });
 }

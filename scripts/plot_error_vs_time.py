@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """Error against run time of the GPU mesh series.
 
-Reads the rows that `scripts/gpu.sh series` writes (default docs/figures/mpm_series_h100.csv),
-takes for each scene the finest fp64 run of the phase-transition model as the reference
-(the column: 1 mm at the fixed step; the flume: the finest grid run), and writes
+Reads the rows that `scripts/gpu.sh series` writes to series.csv (default
+docs/figures/mpm_series_h100.csv), takes for each scene the finest fp64 run of the
+phase-transition model as the reference (the column: 1 mm at the fixed step; the flume: the
+finest grid run), and writes
   <stem>_errors.csv  every full run with its run-out error and the paper's time for its grid,
   <stem>.png         |run-out error| against wall time, one panel per scene,
 and prints the Markdown table of docs/mpm_results.md.

@@ -66,17 +66,26 @@ toml::table TomlTable::parse_text(const std::string& text, const std::string& na
   }
 }
 
+// The node with a position for n: n itself, else the table holding it (nullptr: none known).
+const toml::node* TomlTable::located(const toml::node* n) const {
+  if (n && n->source().begin) return n;
+  return table_->source().begin ? table_ : nullptr;
+}
+
+// A node put in from elsewhere (a command-line --set over a scene file) carries that origin
+// as its source path: messages name it instead of a line of the file.
+bool TomlTable::foreign(const toml::node* n) const { return n->source().path && *n->source().path != file_; }
+
 std::string TomlTable::position(const toml::node* n) const {
-  if (n && n->source().begin) return where(file_, n->source().begin.line, n->source().begin.column);
-  if (table_->source().begin) return where(file_, table_->source().begin.line, 0);
-  return where(file_);
+  const toml::node* at = located(n);
+  if (!at) return where(file_);
+  if (foreign(at)) return where(file_) + *at->source().path + ": ";
+  return where(file_, at->source().begin.line, at == n ? at->source().begin.column : 0);
 }
 
 long TomlTable::line(const std::string& key) const {
-  const toml::node* n = key.empty() ? nullptr : table_->get(key);
-  if (n && n->source().begin) return static_cast<long>(n->source().begin.line);
-  if (table_->source().begin) return static_cast<long>(table_->source().begin.line);
-  return 0;
+  const toml::node* at = located(key.empty() ? nullptr : table_->get(key));
+  return at && !foreign(at) ? static_cast<long>(at->source().begin.line) : 0;
 }
 
 void TomlTable::fail(const std::string& key, const std::string& message) const {

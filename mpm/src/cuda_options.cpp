@@ -1,4 +1,4 @@
-// Command-line spelling of the CUDA backend's options (granflow-mpm, granflow bench mpm).
+// Command-line spelling of the CUDA backend's options (granflow mpm, granflow bench mpm).
 #include <cstdlib>
 #include <string>
 

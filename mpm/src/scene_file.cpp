@@ -1,5 +1,6 @@
 #include <granflow/mpm/scene_file.hpp>
 
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <sstream>
@@ -28,11 +29,118 @@ std::vector<double> increasing(TomlTable& t, const std::string& key) {
   return v;
 }
 
-}  // namespace
+// One part of a --set key: a table or key name, with an index into an array of tables.
+struct KeyPart {
+  std::string name;
+  long index = -1;
+};
 
-mpm::Scene load_scene(const std::string& path) {
-  if (!std::filesystem::exists(path)) throw InputError(where(path) + "no such scene file");
-  const toml::table doc = TomlTable::parse_file(path);
+std::string trim(const std::string& s) {
+  const auto a = s.find_first_not_of(" \t");
+  if (a == std::string::npos) return "";
+  return s.substr(a, s.find_last_not_of(" \t") - a + 1);
+}
+
+// "stage[1].duration" -> {stage, 1}, {duration}; empty when malformed.
+std::vector<KeyPart> split_key(const std::string& key) {
+  std::vector<KeyPart> parts;
+  std::size_t at = 0;
+  for (;;) {
+    std::size_t end = at;
+    while (end < key.size() && (std::isalnum(static_cast<unsigned char>(key[end])) || key[end] == '_' || key[end] == '-'))
+      ++end;
+    if (end == at) return {};
+    KeyPart p{key.substr(at, end - at)};
+    if (end < key.size() && key[end] == '[') {
+      const std::size_t close = key.find(']', end);
+      const std::string digits = close == std::string::npos ? "" : key.substr(end + 1, close - end - 1);
+      if (digits.empty() || digits.size() > 6 || digits.find_first_not_of("0123456789") != std::string::npos) return {};
+      p.index = std::stol(digits);
+      end = close + 1;
+    }
+    parts.push_back(p);
+    if (end == key.size()) return parts;
+    if (key[end] != '.') return {};
+    at = end + 1;
+  }
+}
+
+bool is_parameter_set_key(const std::vector<KeyPart>& parts) {
+  for (const char* t : kParameterSetTables)
+    if (parts.front().name == t && parts.front().index < 0) return true;
+  return false;
+}
+
+// VALUE as a TOML value ("v" of the returned table). Its source names the --set, so the
+// strict reader's messages point to it and not to a line of the file. A bare word is a string.
+toml::table parse_value(const std::string& value, const std::string& origin, const std::string& who) {
+  if (trim(value).empty()) throw InputError(who + "no value after '='");
+  const bool bare_word = value.find_first_of("\"'[]{}=#\\ \t\r\n") == std::string::npos;
+  toml::table t;
+  try {
+    t = toml::parse("v = " + value, std::string_view(origin));
+  } catch (const toml::parse_error& e) {
+    const std::string why = "not a TOML value (" + std::string(e.description()) +
+                            "); strings with spaces need quotes, e.g. name=\"my run\"";
+    if (!bare_word) throw InputError(who + why);
+    try {
+      t = toml::parse("v = \"" + value + "\"", std::string_view(origin));
+    } catch (const toml::parse_error&) {  // e.g. a control character
+      throw InputError(who + why);
+    }
+  }
+  if (t.size() != 1 || !t.contains("v")) throw InputError(who + "VALUE must be one TOML value");
+  return t;
+}
+
+// Puts value at the key path in the scene document; missing tables are made (the strict reader
+// then names an unknown one), arrays of tables are indexed but not extended.
+void set_scene_value(toml::table& doc, const std::vector<KeyPart>& parts, toml::table value,
+                     const std::string& origin, const std::string& who) {
+  toml::table* t = &doc;
+  std::string dotted;
+  for (std::size_t i = 0; i + 1 < parts.size(); ++i) {
+    const KeyPart& p = parts[i];
+    dotted += (dotted.empty() ? "" : ".") + p.name;
+    toml::node* n = t->get(p.name);
+    if (p.index >= 0) {
+      if (!n || !n->is_array_of_tables()) throw InputError(who + "the scene has no [[" + dotted + "]] tables");
+      toml::array& a = *n->as_array();
+      if (static_cast<std::size_t>(p.index) >= a.size())
+        throw InputError(who + "the scene has " + std::to_string(a.size()) + " [[" + dotted + "]] table" +
+                         (a.size() == 1 ? "" : "s") + " (" + dotted + "[0] to " + dotted + "[" +
+                         std::to_string(a.size() - 1) + "]); --set changes entries, it does not add them");
+      t = a.get(static_cast<std::size_t>(p.index))->as_table();
+      dotted += "[" + std::to_string(p.index) + "]";
+      continue;
+    }
+    if (!n) {
+      toml::table fresh = toml::parse("v = {}", std::string_view(origin));  // sourced: an unknown table names the --set
+      t->insert(p.name, std::move(*fresh.get("v")->as_table()));
+      n = t->get(p.name);
+    }
+    if (n->is_array_of_tables())
+      throw InputError(who + "'" + dotted + "' is an array of tables: give an index, e.g. " + dotted + "[0]." +
+                       parts[i + 1].name);
+    if (!n->is_table()) throw InputError(who + "'" + dotted + "' is a value, not a table");
+    t = n->as_table();
+  }
+  if (parts.back().index >= 0)
+    throw InputError(who + "KEY must end in a key name, e.g. stage[1].duration, not in an index");
+  t->insert_or_assign(parts.back().name, std::move(*value.get("v")));
+}
+
+std::string override_key(const std::string& assignment) { return trim(assignment.substr(0, assignment.find('='))); }
+
+// " (with --set 'a' --set 'b')": said after messages about keys of the file the overrides may explain.
+std::string with_overrides(const std::vector<std::string>& sets) {
+  std::string s;
+  for (const auto& a : sets) s += (s.empty() ? " (with " : " ") + ("--set '" + a + "'");
+  return s.empty() ? s : s + ")";
+}
+
+Scene read_scene(const toml::table& doc, const std::string& path, const std::string& params,
+                 const std::vector<std::string>& parameter_sets) {
   TomlTable root(doc, path);
   mpm::Scene sc;
   sc.file = path;
@@ -73,9 +181,10 @@ mpm::Scene load_scene(const std::string& path) {
     const bool tpic = s->choice("transfer", {"flip", "tpic"}, "flip") == "tpic";
     sc.transfer = tpic ? mpm::Scene::Transfer::TaylorPic : mpm::Scene::Transfer::FlipPic;
     sc.flip = s->number_or("flip", tpic ? 0.0 : 0.99, Bounds::closed(0, 1));
-    sc.pic_speed = s->number_or("pic_speed", 0.0, Bounds::positive());
-    if (s->has("flip") && s->has("pic_speed"))
-      s->fail("pic_speed", "give either flip (a fraction per step) or pic_speed (a rate), not both");
+    sc.pic_speed = s->number_or("pic_speed", 0.0, Bounds::non_negative());  // 0: no rate, flip per step
+    if (s->has("flip") && sc.pic_speed > 0)
+      s->fail("pic_speed", "give either flip (a fraction per step) or pic_speed (a rate), not both "
+                           "(pic_speed = 0 turns the rate off)");
     sc.volumetric_averaging = s->boolean_or("volumetric_averaging", false);
     mpm::parse_precision(s->choice("precision", {"fp64", "mixed", "fp32"}, "fp64"), sc.precision);
     if (s->has("gravity")) sc.gravity = vec(*s, "gravity", D);
@@ -88,19 +197,29 @@ mpm::Scene load_scene(const std::string& path) {
 
   TomlTable mat = root.table("material");
   {
-    std::string pset = mat.string("parameters");
-    const std::filesystem::path rel = std::filesystem::path(path).parent_path() / pset;
-    if (pset.find('/') != std::string::npos && std::filesystem::exists(rel)) pset = rel.string();
+    std::string pset = params;
+    if (params.empty()) {
+      pset = mat.string("parameters");
+      const std::filesystem::path rel = std::filesystem::path(path).parent_path() / pset;
+      if (pset.find('/') != std::string::npos && std::filesystem::exists(rel)) pset = rel.string();
+    } else {
+      mat.string_or("parameters", "");  // replaced by --params
+    }
+    auto fail_set = [&](const std::string& message) {
+      if (!params.empty()) throw InputError("--params '" + params + "': " + message);
+      mat.fail("parameters", message);
+    };
     ParameterSet set;
     try {
       set = load_parameter_set(pset);
     } catch (const InputError& e) {
-      mat.fail("parameters", e.what());
+      fail_set(e.what());
     }
+    for (const auto& a : parameter_sets) apply_override(set, a, "--set");
     sc.material.name = set.file;
     const std::string model = mat.choice("model", {"phase_transition", "frictional"}, "phase_transition");
     sc.material.model = model == "frictional" ? mpm::ModelKind::Frictional : mpm::ModelKind::PhaseTransition;
-    if (!set.has_frictional()) mat.fail("parameters", "the set " + set.file + " has no [frictional] part");
+    if (!set.has_frictional()) fail_set("the set " + set.file + " has no [frictional] part");
     sc.material.params.f = *set.frictional;
     if (set.has_collisional()) sc.material.params.c = *set.collisional;
     if (sc.material.model == mpm::ModelKind::PhaseTransition && !set.has_collisional())
@@ -239,6 +358,54 @@ mpm::Scene load_scene(const std::string& path) {
   }
   root.finish();
   return sc;
+}
+
+}  // namespace
+
+mpm::Scene load_scene(const std::string& path, const SceneOverrides& overrides) {
+  if (!std::filesystem::exists(path)) throw InputError(where(path) + "no such scene file");
+  toml::table doc = TomlTable::parse_file(path);
+  std::vector<std::string> parameter_sets;
+  for (const std::string& a : overrides.sets) {
+    const std::string origin = "--set '" + a + "'", who = where(path) + origin + ": ";
+    const auto eq = a.find('=');
+    const std::vector<KeyPart> parts = eq == std::string::npos ? std::vector<KeyPart>{} : split_key(override_key(a));
+    if (parts.empty())
+      throw InputError(who + "expected KEY=VALUE, e.g. grid.h=0.0025, stage[1].duration=0.5 or frictional.phi_c_deg=30");
+    if (is_parameter_set_key(parts))
+      parameter_sets.push_back(a);
+    else
+      set_scene_value(doc, parts, parse_value(a.substr(eq + 1), origin, who), origin, who);
+  }
+  Scene sc;
+  try {
+    sc = read_scene(doc, path, overrides.params, parameter_sets);
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    if (overrides.sets.empty() || msg.find("--set '") != std::string::npos) throw;
+    throw InputError(msg + with_overrides(overrides.sets));
+  }
+  sc.overrides = overrides.sets;
+  return sc;
+}
+
+SceneSetup make_setup_for_file(const Scene& sc) {
+  try {
+    return make_setup(sc);
+  } catch (const SceneError& e) {
+    const std::string message = "'" + e.key() + "': " + (e.what() + e.key().size() + 2);
+    // the --set of the key (or of the table holding it: "body[0].min" -> "body[0]"), else its line
+    for (std::string k = e.key(); !k.empty();) {
+      for (auto a = sc.overrides.rbegin(); a != sc.overrides.rend(); ++a)
+        if (override_key(*a) == k) throw InputError(where(sc.file) + "--set '" + *a + "': " + message);
+      const auto it = sc.lines.find(k);
+      if (it != sc.lines.end() && it->second > 0)
+        throw InputError(where(sc.file, it->second) + message + with_overrides(sc.overrides));
+      const auto cut = k.find_last_of(".[");
+      k = cut == std::string::npos ? "" : k.substr(0, cut);
+    }
+    throw InputError(where(sc.file) + message + with_overrides(sc.overrides));
+  }
 }
 
 }  // namespace granflow::mpm

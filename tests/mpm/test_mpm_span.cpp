@@ -487,7 +487,7 @@ TEST(MpmBinning, TileP2GEqualsScatterAndSortedBlocksFitTheTile) {
   }
 }
 
-// The CUDA options' command-line spellings (granflow mpm / bench mpm, granflow-mpm): every
+// The CUDA options' command-line spellings (granflow mpm / bench mpm): every
 // value the help lists is taken, anything else is refused and leaves the options as they were.
 TEST(CudaOptions, CommandLineSpellingsAreTakenOrRefusedWithoutSideEffects) {
   CudaOptions o;

@@ -119,6 +119,11 @@ std::string J(const std::string& from, const std::string& to) { return edit(kJob
 const std::vector<std::string> kMpm = {"mpm", "scene.toml", "--out", "o", "--no-png", "--quiet"};
 const std::vector<std::string> kRestart = {"mpm", "scene.toml", "--out", "o", "--no-png", "--quiet", "--restart"};
 const std::vector<std::string> kCal = {"calibrate", "job.toml", "--out", "fit", "--no-plot", "--quiet"};
+std::vector<std::string> mpm_with(std::vector<std::string> extra) {
+  std::vector<std::string> a = kMpm;
+  a.insert(a.end(), extra.begin(), extra.end());
+  return a;
+}
 
 // A valid checkpoint, but of another scene (its hash is not kScene's).
 std::string foreign_checkpoint() {
@@ -300,6 +305,15 @@ std::vector<Case> all_cases() {
       {"mpm_restart_truncated_checkpoint", {{"o/checkpoint.bin", foreign_checkpoint().substr(0, 100)}}, kRestart, kInput, {"o/checkpoint.bin", "truncated checkpoint: 100 bytes"}},
       {"mpm_restart_corrupt_checkpoint", {{"o/checkpoint.bin", flip_byte(foreign_checkpoint(), 60)}}, kRestart, kInput, {"o/checkpoint.bin", "checksum mismatch"}},
       {"mpm_restart_not_a_checkpoint", {{"o/checkpoint.bin", "t,runout\n0,0.2\n"}}, kRestart, kInput, {"o/checkpoint.bin", "not a granflow MPM checkpoint"}},
+      // ---- --set and --params over the scene (granflow mpm, bench mpm) ------------------------------
+      {"mpm_set_unknown_key", {}, mpm_with({"--set", "grid.hh=0.01"}), kInput, {"scene.toml: --set 'grid.hh=0.01': unknown key 'grid.hh'", "allowed here"}},
+      {"mpm_set_wrong_type", {}, mpm_with({"--set", "time.dt=fast"}), kInput, {"scene.toml: --set 'time.dt=fast': 'time.dt': expected a number, got a string"}},
+      {"mpm_set_no_value", {}, mpm_with({"--set", "grid.h"}), kInput, {"scene.toml: --set 'grid.h': expected KEY=VALUE"}},
+      {"mpm_set_no_such_stage", {}, mpm_with({"--set", "stage[1].duration=1"}), kInput, {"--set 'stage[1].duration=1'", "the scene has 1 [[stage]] table (stage[0] to stage[0])"}},
+      {"mpm_set_dt_above_stability_limit", {}, mpm_with({"--set", "time.dt=1e-2"}), kInput, {"scene.toml: --set 'time.dt=1e-2': 'time.dt'", "above the stability limit"}},
+      {"mpm_set_parameter_out_of_range", {}, mpm_with({"--set", "frictional.phi_c_deg=95"}), kInput, {"--set 'frictional.phi_c_deg=95': 'frictional.phi_c_deg': must be in (0, 90), got 95"}},
+      {"mpm_params_unknown", {}, mpm_with({"--params", "column_colapse"}), kInput, {"--params 'column_colapse'", "no parameter set of that name", "column_collapse"}},
+      {"bench_mpm_set_unknown_table", {}, {"bench", "mpm", "scene.toml", "--set", "gird.h=0.01"}, kInput, {"scene.toml: --set 'gird.h=0.01': unknown key 'gird'"}},
   };
 }
 

@@ -64,8 +64,8 @@ struct Work {
     return run_in(dir.string(), GRANFLOW_BINARY, args(out, extra));
   }
   // Starts a run, waits until its first checkpoint exists, sends `sig`, waits for the end.
-  Outcome interrupt(const std::string& out, int sig) const {
-    const int pid = start_in(dir.string(), GRANFLOW_BINARY, args(out));
+  Outcome interrupt(const std::string& out, int sig, std::vector<std::string> extra = {}) const {
+    const int pid = start_in(dir.string(), GRANFLOW_BINARY, args(out, std::move(extra)));
     const fs::path ck = dir / out / "checkpoint.bin";
     const auto t0 = std::chrono::steady_clock::now();
     while (!fs::exists(ck) && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60))
@@ -225,4 +225,45 @@ TEST(MpmRestartProcess, TruncatedCorruptAndForeignCheckpointsAreRefused) {
   w.write("params.toml", params);
   const Outcome r = w.run("o", {"--restart"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
+}
+
+// --set and --params are part of what a checkpoint was written for: the interrupted run says
+// to repeat them, a restart without them or with other values is refused and touches nothing,
+// and the restart that repeats them ends with the uninterrupted run's files.
+TEST(MpmRestartProcess, RestartNeedsTheSameOverrides) {
+  const Work w("overrides");
+  const std::vector<std::string> sets = {"--params", "column_collapse", "--set", "frictional.K0=110", "--set",
+                                         "output.series_dt=5e-3"};
+  const Outcome ref = w.run("ref", sets);
+  ASSERT_EQ(ref.exit_code, 0) << ref.err;
+
+  const Outcome i = w.interrupt("o", SIGINT, sets);
+  ASSERT_FALSE(i.signaled) << "killed by signal " << i.signal << ": " << i.err;
+  ASSERT_EQ(i.exit_code, 130) << i.err;
+  EXPECT_NE(i.err.find("continue with: granflow mpm scene.toml --out o --restart --params column_collapse --set "
+                       "frictional.K0=110 --set output.series_dt=5e-3"),
+            std::string::npos)
+      << i.err;
+
+  const std::vector<std::vector<std::string>> others = {
+      {},                                                                        // none
+      {"--set", "frictional.K0=110"},                                            // one left out
+      {"--params", "column_collapse", "--set", "frictional.K0=111", "--set", "output.series_dt=5e-3"},  // other value
+      {"--params", "flume", "--set", "frictional.K0=110", "--set", "output.series_dt=5e-3"},           // other set
+  };
+  for (const auto& other : others) {
+    const auto before = w.files("o");
+    std::vector<std::string> extra = other;
+    extra.push_back("--restart");
+    const Outcome r = w.run("o", extra);
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find("o/checkpoint.bin: "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("for a different scene or parameter set"), std::string::npos) << r.err;
+    EXPECT_TRUE(w.files("o") == before) << "the refused restart changed the folder";
+  }
+  std::vector<std::string> same = sets;
+  same.push_back("--restart");
+  const Outcome r = w.run("o", same);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  expect_same_files(w, "ref", "o");
 }

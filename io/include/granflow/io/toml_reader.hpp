@@ -58,7 +58,7 @@ class TomlTable {
 
   [[noreturn]] void fail(const std::string& key, const std::string& message) const;
   [[noreturn]] void fail_missing(const std::string& key, const std::string& what) const;
-  // Line of key, or of this table when key is empty or absent (0: unknown).
+  // Line of key, or of this table when key is empty or absent (0: unknown, or not from the file).
   long line(const std::string& key = "") const;
   std::string dotted(const std::string& key) const { return prefix_.empty() ? key : prefix_ + "." + key; }
   const std::string& file() const { return file_; }
@@ -67,6 +67,8 @@ class TomlTable {
  private:
   const toml::node* node(const std::string& key);
   std::string position(const toml::node* n) const;
+  const toml::node* located(const toml::node* n) const;
+  bool foreign(const toml::node* n) const;
 
   const toml::table* table_;
   std::string file_;

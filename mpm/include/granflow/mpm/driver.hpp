@@ -71,7 +71,7 @@ struct RunSummary {
 
 RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt);
 
-// Throughput of the first stage after a warm-up (granflow bench mpm, granflow-mpm --bench).
+// Throughput of the first stage after a warm-up (granflow bench mpm).
 // The timed steps run as one span (or step by step, a host round-trip each: the old loop);
 // the per-phase split comes from a separate timed span where the backend does not time its
 // production spans (CUDA: events around each phase and a synchronisation per step).

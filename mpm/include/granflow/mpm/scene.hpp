@@ -154,6 +154,8 @@ struct Scene {
   std::vector<Track> tracks;
   OutputSpec output;
   std::map<std::string, long> lines;  // scene files: line of each key make_setup may name
+  // --set assignments applied over the file, as given and in order (a restart must repeat them)
+  std::vector<std::string> overrides;
 
   double duration() const {
     double t = 0;
@@ -162,8 +164,8 @@ struct Scene {
   }
 };
 
-// The paper's scenes built in code, for programs without a TOML reader (the GPU machine) and
-// for tests; mpm/scenes/*.toml describe the same set-ups (a test checks they agree).
+// The paper's scenes built in code, fixtures of the tests and of mpm_cuda_check; runs use
+// mpm/scenes/*.toml, and a test checks that the files with --set overrides give these scenes.
 // Column: 0.1 s damped consolidation with the gate, then `collapse_time` of collapse.
 Scene column_scene(double h, double dt, ModelKind model, ShapeKind shape, double collapse_time);
 // Flume: 0.1 s damped consolidation behind the gate, then `flow_time` of flow.

@@ -1,13 +1,36 @@
 // Scene files (mpm/scenes/*.toml) -> granflow::mpm::Scene, strictly validated: unknown keys,
 // missing keys, wrong types and out-of-range values are errors naming file, line and key.
+// Command-line overrides (--params, --set) pass through the same validation and errors name them.
 #pragma once
 
 #include <string>
+#include <vector>
 
+#include <granflow/mpm/runner.hpp>
 #include <granflow/mpm/scene.hpp>
 
 namespace granflow::mpm {
 
-Scene load_scene(const std::string& path);
+// Values given on the command line over a scene file.
+struct SceneOverrides {
+  // A parameter set (name under data/params or a file) instead of the scene's material.parameters.
+  std::string params;
+  // KEY=VALUE, applied in order. KEY is routed by its first part: a table of parameter sets
+  // (frictional, collisional, initial, numerics; see kParameterSetTables) changes the material's
+  // parameter set (io::apply_override); any other KEY is a scene key: a dotted path such as
+  // grid.h, time.adaptive or solver.precision, with [i] for an entry of an array of tables
+  // (stage[1].duration, body[0].max). VALUE is a TOML value (0.0025, true, [0.6, 0.16], "x");
+  // a bare word such as frictional is read as a string.
+  std::vector<std::string> sets;
+};
+
+// The first parts of --set keys that go to the parameter set, not to the scene.
+inline const char* const kParameterSetTables[] = {"frictional", "collisional", "initial", "numerics"};
+
+Scene load_scene(const std::string& path, const SceneOverrides& overrides = {});
+
+// make_setup for a scene from load_scene: its consistency errors (SceneError) become input
+// errors naming the file and line of the offending key, or the --set that gave it.
+SceneSetup make_setup_for_file(const Scene& scene);
 
 }  // namespace granflow::mpm

@@ -1,0 +1,365 @@
+#!/usr/bin/env bash
+# GPU sessions, in named parts, on a machine with only CMake, nvcc and .deps/include (made by
+# scripts/copy_deps.sh where the headers are installed). Every run is granflow mpm or granflow
+# bench mpm on a scene file of mpm/scenes, changed with --set.
+#
+#   scripts/gpu.sh PART [PART...]
+#
+#   build          configure and build $BUILD: granflow, mpm_cuda_check, constitutive_device_host
+#   check          host/device constitutive test; GPU against CPU twin (mpm_cuda_check --short)
+#   paper          the paper's scenes at full size: benchmarks; 1 mm column, both models and the
+#                  three precisions; 5 mm flume at dt 1e-5, both models, and at the paper's 1e-6
+#                  (first 0.4 s); transfer and shape variants of the 1 mm column
+#   series         mesh series, one row per run in series.csv (scripts/plot_error_vs_time.py):
+#                  series-column  column 10/5/2.5/1 mm, fixed and CFL step, fp64 and fp32, the
+#                                 frictional model and linear shapes at 5 mm and 1 mm
+#                  series-flume   flume 20/10/5 mm, the same axes
+#                  series-fine    flume 2.5 mm (CFL step), the 5 mm flume at the paper's dt (capped)
+#   perf           granflow bench mpm of the CUDA options on the 1 mm column and the 5 mm flume,
+#                  the precisions, the split G2P; the full 1 mm column and its first 0.35 s timed
+#   profile        Nsight Compute of the 1 mm column's kernels (needs ncu)
+#   sanitize       compute-sanitizer memcheck and racecheck of the CI scenes and CUDA option variants
+#   3d             the 3D slab (8e6 points) benchmark: precisions and CUDA options
+#
+# Results go to $GPU_OUT, else $OUT, else out/gpu: PART.log (each command, printed before it
+# runs, and its output), series.csv, PART_csv.tgz (the runs' CSV outputs); stdout has the
+# commands and one line of figures per run. Run folders go to $RUNS (default /tmp/gf_gpu).
+# Environment: BUILD (build-gpu), CUDA_ARCH (90), GRANFLOW_MPM_CUDA_3D (ON: the 3d part needs
+# it), TMO (seconds cap of each run; default per run), SANITIZE_TOOLS ("memcheck racecheck"),
+# BACKEND (cuda; cpu tries the runs on the CPU twin). Sourced, the script only defines its
+# functions (series, run, bench: for single runs by hand).
+set -o pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
+
+B=${BUILD:-build-gpu}
+G=$B/granflow
+RES=${GPU_OUT:-${OUT:-out/gpu}}
+RUNS=${RUNS:-/tmp/gf_gpu}
+BACKEND=${BACKEND:-cuda}
+SC=mpm/scenes
+COL=$SC/column_collapse.toml
+COL_FR=$SC/column_collapse_frictional.toml
+FLU=$SC/flume.toml
+FLU_FR=$SC/flume_frictional.toml
+CSV=$RES/series.csv
+log=/dev/null  # the current part's log
+R=$RUNS        # the current part's run folder
+
+# The words as a shell reads them back (quoted where needed).
+words() {
+  local w out=
+  for w in "$@"; do
+    if [[ $w =~ ^[A-Za-z0-9_./=:,+@%-]+$ ]]; then out+=" $w"; else out+=" '${w//\'/\'\\\'\'}'"; fi
+  done
+  printf '%s\n' "${out# }"
+}
+
+# x CAP FILE CMD...: prints CMD, runs it capped at CAP seconds with its output in FILE (of the
+# progress lines only the last) and in the part's log; returns CMD's exit code (124: capped).
+x() {
+  local cap=$1 file=$2
+  shift 2
+  mkdir -p "$(dirname "$file")"
+  echo "+ $(words "$@")" | tee -a "$log"
+  timeout -k 30 "$cap" "$@" >"$file.raw" 2>&1
+  local rc=$?
+  tr '\r' '\n' <"$file.raw" | awk '/steps\/s  ETA/ {last = $0; next} {print} END {if (last != "") print last}' >"$file"
+  rm -f "$file.raw"
+  cat "$file" >>"$log"
+  echo "  [exit $rc]" >>"$log"
+  return $rc
+}
+
+# The figures of a granflow bench mpm report on one line.
+bench_figures() {
+  awk -v l="$1" '/^time per step/ {t = $4} /device time per step/ {d = $(NF - 1)} /^  P2G:/ {p = $2}
+    /^  grid update:/ {g = $3} /^  G2P \+ constitutive:/ {c = $4} /^  sort \(amortised\)/ {s = $(NF - 1)}
+    /^particle-updates/ {u = $2} /^set-up/ {su = $2 "+" $7 " s"}
+    END {printf "  %-46s %8s us/step (device %7s) | split: P2G %7s grid %6s G2P %7s sort %5s | %9s updates/s | set-up %s\n",
+                l, t, d, p, g, c, s, u, su}' "$2"
+}
+
+# bench LABEL CAP SCENE ARGS...: granflow bench mpm on the GPU, its figures on one line; the
+# report stays in $bench_file.
+bench() {
+  local label=$1 cap=$2 scene=$3
+  shift 3
+  bench_file=$R/bench_$(printf %s "$label" | tr -c 'a-zA-Z0-9.-' _).txt
+  x "$cap" "$bench_file" "$G" bench mpm "$scene" --backend "$BACKEND" "$@" || echo "  ($label: exit code $?, see $log)"
+  bench_figures "$label" "$bench_file"
+}
+
+# The figures of a granflow mpm summary FILE on one line (a capped run: how far it got).
+run_figures() {
+  awk -v l="$1" -v rc="$2" '/^steps:/ {n = $2} /^wall:/ {w = $2} /^final run-out:/ {r = $3} /^final height:/ {h = $3}
+    /device time per step \(spans\)/ {d = $6} /after stage 1:/ {b = $6 "/" $12 " Pa"}
+    /interrupted by SIG/ {cap = $8} /run stopped/ {stop = $0}
+    END {if (rc == 0) printf "  %-24s run-out %s m, height %s m, %s steps, wall %s s, device %s us/step, base %s\n",
+                             l, r, h, n, w, d, b;
+         else printf "  %-24s exit %s%s %s\n", l, rc, cap != "" ? ", stopped at t = " cap " s" : "", stop}' "$3"
+}
+
+# run NAME CAP SCENE ARGS...: granflow mpm SCENE on the GPU into $R/NAME (capped at TMO if set,
+# else CAP seconds); one line of figures.
+run() {
+  local name=$1 cap=$2 scene=$3
+  shift 3
+  x "${TMO:-$cap}" "$R/$name.txt" "$G" mpm "$scene" --backend "$BACKEND" --out "$R/$name" --force --no-png "$@"
+  local rc=$?
+  run_figures "$name" $rc "$R/$name.txt"
+  return $rc
+}
+
+# Run-out at t_flow = T in a run's runout.csv (t,t_flow,stage,runout,...).
+runout_at() {
+  awk -F, -v t="$2" 'NR > 1 && $2 > t - 1e-6 && $2 < t + 1e-6 {r = $4} END {print r}' "$1" 2>/dev/null
+}
+
+# series SCENE H DT MODE PRECISION MODEL [ARGS...]: one run of a mesh series, one row of series.csv.
+# MODE is fixed or cfl:C (adaptive step, DT the largest); MODEL pt or frictional; ARGS go to the
+# run and, as given, to the row's extra column.
+series() {
+  local scene=$1 h=$2 dt=$3 mode=$4 prec=$5 model=$6
+  shift 6
+  local extra="$*" file=$COL cap=120
+  local args=(--set "grid.h=$h" --set "time.dt=$dt" --precision "$prec")
+  if [ "$scene" = flume ]; then
+    file=$FLU
+    cap=150
+    # the grid's height a whole number of cells (flume.toml: 2.155 m, 431 cells of 5 mm)
+    case $h in
+      0.02 | 0.01) args+=(--set "grid.size=[3.2, 2.16]") ;;
+      0.0025) args+=(--set "grid.size=[3.2, 2.1525]") ;;
+    esac
+  elif awk -v h="$h" 'BEGIN {exit !(h >= 0.005)}'; then
+    args+=(--set output.series_dt=5e-3)  # the coarse columns sampled as before
+  fi
+  [ "$model" = frictional ] && args+=(--set material.model=frictional)
+  [ "${mode%%:*}" = cfl ] && args+=(--set time.adaptive=true --set "time.cfl=${mode#cfl:}")
+  local name
+  name=${scene}_${h}_${mode/:/}_${prec}_${model}$(printf %s "${extra:+_$extra}" | tr -c 'a-zA-Z0-9.' _)
+  mkdir -p "$RES"
+  [ -f "$CSV" ] || echo "scene,h_mm,dt_mode,dt_max,precision,model,exit,steps,wall_s,device_us_per_step,runout_0.4,runout_0.8,runout_final,height_final,t_end,extra" >"$CSV"
+  local t0=$SECONDS
+  x "${TMO:-$cap}" "$R/$name.txt" "$G" mpm "$file" --backend "$BACKEND" --out "$R/$name" --force --no-png "${args[@]}" "$@"
+  local rc=$?
+  local r4 r8
+  r4=$(runout_at "$R/$name/runout.csv" 0.4)
+  r8=$(runout_at "$R/$name/runout.csv" 0.8)
+  awk -v scene="$scene" -v h="$h" -v mode="$mode" -v dt="$dt" -v prec="$prec" -v model="$model" -v rc=$rc \
+      -v wall=$((SECONDS - t0)) -v r4="$r4" -v r8="$r8" -v extra="${extra//,/;}" '
+    /^steps:/ {steps = $2} /^wall:/ {wall = $2} /^final run-out:/ {ro = $3} /^final height:/ {ht = $3}
+    /^simulated:/ {tend = $2} /device time per step \(spans\)/ {dev = $6}
+    /^ *t = / {reached = $3}
+    /interrupted by SIG/ {stopped = $8; steps = $11; sub(/\);?$/, "", steps)}
+    END {
+      if (tend == "") tend = stopped != "" ? stopped : reached  # capped: how far it got
+      printf "%s,%g,%s,%s,%s,%s,%d,%s,%s,%s,%s,%s,%s,%s,%s,%s\n", scene, h * 1000, mode, dt, prec, model, rc,
+             steps, wall, dev, r4, r8, ro, ht, tend, extra
+    }' "$R/$name.txt" | tee -a "$CSV"
+}
+
+part_build() {
+  if [ ! -d .deps/include/Eigen ] || [ ! -d .deps/include/toml++ ]; then
+    echo "no .deps/include: run scripts/copy_deps.sh where Eigen, toml++, CLI11 and libfccp are installed" >&2
+    return 1
+  fi
+  local t0=$SECONDS
+  x 600 "$R/configure.txt" cmake -S . -B "$B" -DGRANFLOW_GPU_ONLY=ON -DGRANFLOW_DEPS_INCLUDE="$PWD/.deps/include" \
+    -DCMAKE_CUDA_ARCHITECTURES="${CUDA_ARCH:-90}" -DCMAKE_BUILD_TYPE=Release \
+    -DGRANFLOW_MPM_CUDA_3D="${GRANFLOW_MPM_CUDA_3D:-ON}" || { tail -20 "$R/configure.txt"; return 1; }
+  x 1800 "$R/build.txt" cmake --build "$B" -j"$(nproc)" --target granflow mpm_cuda_check constitutive_device_host ||
+    { grep -E "error|Error" "$R/build.txt" | head -20; return 1; }
+  echo "build: $((SECONDS - t0)) s" | tee -a "$log"
+}
+
+part_check() {
+  local rc1 rc2
+  nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm --format=csv,noheader 2>&1 | head -1 | tee -a "$log"
+  x 60 "$R/device_host.txt" "$B/tests/cuda/constitutive_device_host"
+  rc1=$?
+  echo "  constitutive_device_host: exit code $rc1 (0: all OK)"
+  tail -3 "$R/device_host.txt"
+  x 170 "$R/cuda_check.txt" env OMP_NUM_THREADS=8 "$B/mpm_cuda_check" --short
+  rc2=$?
+  echo "  mpm_cuda_check --short: exit code $rc2 (0: all OK; 77: no GPU; run-out/height within 0.5 %, points in original order)"
+  grep -E "OK|FAIL" "$R/cuda_check.txt" | cut -c1-160
+  [ $rc1 -eq 0 ] && [ $rc2 -eq 0 ]
+}
+
+part_paper() {
+  echo "== benchmarks (300 steps of the consolidation after 20)"
+  bench "column 1 mm, phase transition" 90 "$COL" --steps 300 --warmup 20
+  bench "column 1 mm, frictional only" 90 "$COL_FR" --steps 300 --warmup 20
+  bench "flume 5 mm, phase transition" 90 "$FLU" --steps 300 --warmup 20
+  echo "== 1 mm column, 0.1 s consolidation + 1 s collapse (1.1e5 steps)"
+  run col1_pt 150 "$COL"
+  run col1_fr 150 "$COL_FR"
+  run col1_pt_mixed 150 "$COL" --precision mixed
+  run col1_pt_fp32 150 "$COL" --precision fp32
+  echo "== 5 mm flume, 0.1 s consolidation + 3 s flow"
+  run fl5_pt_dt1e-5 150 "$FLU" --set time.dt=1e-5
+  run fl5_fr_dt1e-5 150 "$FLU_FR" --set time.dt=1e-5
+  run fl5_pt_paperdt 150 "$FLU" --stop-after 0.5  # dt 1e-6 as the paper: the first 0.4 s of flow
+  echo "== 1 mm column variants: transfer and shape functions"
+  run col1_pt_pic025 150 "$COL" --set solver.pic_speed=0.25
+  run col1_pt_flip099 150 "$COL" --set solver.transfer=flip --set solver.pic_speed=0 --set solver.flip=0.99
+  run col1_pt_linear 90 "$COL" --set grid.shape=linear --set solver.transfer=flip --stop-after 0.3
+}
+
+part_series_column() {
+  local hd prec
+  for hd in "0.01 1e-4" "0.005 5e-5" "0.0025 2.5e-5"; do
+    set -- $hd
+    for prec in fp64 fp32; do
+      series column "$1" "$2" fixed $prec pt
+      series column "$1" 1e-4 cfl:0.5 $prec pt
+    done
+  done
+  series column 0.005 5e-5 fixed fp64 frictional
+  series column 0.005 5e-5 fixed fp64 pt --set grid.shape=linear --set solver.transfer=flip
+  series column 0.001 1e-5 fixed fp64 pt  # the reference of plot_error_vs_time.py
+  series column 0.001 1e-5 fixed fp64 frictional
+  series column 0.001 1e-5 fixed fp32 pt
+  series column 0.001 1e-4 cfl:0.5 fp64 pt
+  series column 0.001 1e-4 cfl:0.5 fp32 pt
+}
+
+part_series_flume() {
+  local h prec
+  for h in 0.02 0.01 0.005; do
+    for prec in fp64 fp32; do
+      series flume $h 1e-5 fixed $prec pt
+      series flume $h 1e-4 cfl:0.5 $prec pt
+    done
+  done
+  series flume 0.005 1e-4 cfl:0.5 fp64 frictional
+  series flume 0.005 1e-5 fixed fp64 frictional
+}
+
+part_series_fine() {
+  TMO=${TMO:-250} series flume 0.0025 1e-4 cfl:0.5 fp64 pt
+  TMO=${TMO:-250} series flume 0.005 1e-6 fixed fp64 pt --stop-after 0.9
+}
+
+part_perf() {
+  local base="--loop step --graphs off --sort 0 --p2g atomic" c="--steps 300 --warmup 20"
+  echo "== 1 mm column benchmark (80,000 points, 300 steps of the consolidation after 20)"
+  bench "baseline-like (step loop, no graphs/sort, atomic)" 90 "$COL" $c $base
+  bench "spans, no graphs, no sort, atomic P2G" 90 "$COL" $c --graphs off --sort 0 --p2g atomic
+  bench "spans + graphs, no sort, atomic P2G" 90 "$COL" $c --sort 0 --p2g atomic
+  bench "spans + graphs + sort 32, atomic P2G" 90 "$COL" $c --p2g atomic
+  bench "spans + graphs + sort 32, tile P2G" 90 "$COL" $c --p2g tile
+  bench "default (spans + graphs + sort 32 + warp P2G)" 90 "$COL" $c
+  grep -hE "CUDA options|registers" "$bench_file"
+  bench "default, sort every 8" 90 "$COL" $c --sort 8
+  bench "default, no graphs" 90 "$COL" $c --graphs off
+  bench "default, G2P <= 168 registers" 90 "$COL" $c --g2p-regcap on
+  bench "default, G2P block 64" 90 "$COL" $c --g2p-block 64
+  bench "default, G2P block 256" 90 "$COL" $c --g2p-block 256
+  bench "default, G2P split off" 90 "$COL" $c --g2p-split off
+  bench "default, G2P split on" 90 "$COL" $c --g2p-split on
+  bench "default, G2P split on, <= 168 registers" 90 "$COL" $c --g2p-split on --g2p-regcap on
+  bench "default, frictional only" 90 "$COL_FR" $c
+  bench "default, mixed precision" 90 "$COL" $c --precision mixed
+  bench "default, fp32" 90 "$COL" $c --precision fp32
+  echo "== 5 mm flume benchmark (24,000 points, 283,386 nodes)"
+  bench "flume baseline-like" 90 "$FLU" $c $base
+  bench "flume spans + graphs, no sort, atomic P2G" 90 "$FLU" $c --sort 0 --p2g atomic
+  bench "flume default" 90 "$FLU" $c
+  bench "flume default, G2P split off" 90 "$FLU" $c --g2p-split off
+  bench "flume default, G2P split on" 90 "$FLU" $c --g2p-split on
+  bench "flume default, G2P split on, <= 168 registers" 90 "$FLU" $c --g2p-split on --g2p-regcap on
+  echo "== full 1 mm column (1.1e5 steps, defaults), and its first 0.35 s baseline-like against the defaults"
+  run col1_full 240 "$COL"
+  run col035_baseline 120 "$COL" --stop-after 0.35 --span 1 --graphs off --sort 0 --p2g atomic
+  run col035_default 120 "$COL" --stop-after 0.35
+}
+
+part_profile() {
+  local ncu
+  ncu=$(command -v ncu || ls /usr/local/cuda*/bin/ncu /opt/nvidia/nsight-compute/*/ncu 2>/dev/null | head -1)
+  [ -n "$ncu" ] || { echo "ncu not found: profile skipped" | tee -a "$log"; return 0; }
+  x 300 "$R/ncu_column.txt" "$ncu" --clock-control none --launch-skip 60 --launch-count 3 --section SpeedOfLight \
+    --section LaunchStats --section Occupancy --section MemoryWorkloadAnalysis \
+    "$G" bench mpm "$COL" --backend "$BACKEND" --steps 5 --warmup 60
+  cp "$R/ncu_column.txt" "$RES/ncu_column.txt"
+  grep -E "^  [a-z_]+kernel|Duration|Compute \(SM\) Throughput|Memory Throughput|Registers Per|Achieved Occupancy|Theoretical Occupancy" \
+    "$R/ncu_column.txt" | head -40
+}
+
+part_sanitize() {
+  local cs
+  cs=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer 2>/dev/null | head -1)
+  [ -n "$cs" ] || { echo "compute-sanitizer not found" | tee -a "$log"; return 1; }
+  local ci=$SC/column_collapse_ci.toml cfg label args scene tool rc failed=0
+  for cfg in "default|$ci|" "default|$SC/column_collapse_ci_frictional.toml|" \
+             "volumetric averaging|$ci|--set solver.volumetric_averaging=true" "default|$SC/flume_ci.toml|" \
+             "sort+tile|$ci|--sort 8 --p2g tile" "sort+tile|$SC/flume_ci.toml|--sort 8 --p2g tile" \
+             "sort+warp, no graphs|$ci|--sort 8 --p2g warp --graphs off" \
+             "sort+warp, no graphs|$SC/flume_ci.toml|--sort 8 --p2g warp --graphs off" "split G2P|$ci|--g2p-split on"; do
+    IFS='|' read -r label scene args <<<"$cfg"
+    for tool in ${SANITIZE_TOOLS:-memcheck racecheck}; do
+      # shellcheck disable=SC2086  # args are words
+      x 150 "$R/san.txt" "$cs" --tool $tool --error-exitcode 9 "$G" mpm "$scene" --backend "$BACKEND" $args \
+        --stop-after 0.07 --out "$R/san" --force --no-png --quiet
+      rc=$?
+      [ $rc -eq 0 ] || failed=1
+      echo "  $tool $label $(basename "$scene"): exit $rc | $(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY' "$R/san.txt" | head -1)" |
+        tee -a "$log"
+    done
+  done
+  return $failed
+}
+
+part_3d() {
+  local p opts c="--steps 30 --warmup 5 --split 20"
+  echo "== 3D slab, 8e6 points (mpm/scenes/column_collapse_3d.toml)"
+  for p in fp64 mixed fp32; do bench "3D slab $p" 200 "$SC/column_collapse_3d.toml" $c --precision $p; done
+  for opts in "--g2p-split on" "--g2p-split on --g2p-regcap on" "--p2g tile" "--sort 0 --p2g atomic"; do
+    # shellcheck disable=SC2086
+    bench "3D slab fp32 $opts" 200 "$SC/column_collapse_3d.toml" $c --precision fp32 $opts
+  done
+  bench "3D slab fp64 --g2p-split on" 200 "$SC/column_collapse_3d.toml" $c --precision fp64 --g2p-split on
+  grep -h "memory:" "$R"/bench_3D_slab_*.txt | sort -u
+}
+
+main() {
+  if [ $# -eq 0 ]; then
+    sed -n '2,/^set -o/p' "${BASH_SOURCE[0]}" | sed '$d' | sed 's/^# \{0,1\}//'
+    return 2
+  fi
+  local part fn f t0 status=0
+  for part in "$@"; do
+    case $part in
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d)" >&2
+         return 2 ;;
+    esac
+  done
+  mkdir -p "$RES" "$RUNS" || return 1
+  for part in "$@"; do
+    case $part in
+      series) fn="part_series_column part_series_flume part_series_fine" ;;
+      *) fn=part_${part//-/_} ;;
+    esac
+    if [ "$part" != build ] && { [ ! -x "$G" ] || [ ! -x "$B/mpm_cuda_check" ]; }; then
+      log=$RES/build.log R=$RUNS/build
+      mkdir -p "$R"
+      part_build || return 1
+    fi
+    log=$RES/$part.log R=$RUNS/$part
+    mkdir -p "$R"
+    echo "== $part ($(date -u '+%Y-%m-%d %H:%M:%S UTC'), $(git rev-parse --short HEAD 2>/dev/null || echo 'no git'))" | tee -a "$log"
+    t0=$SECONDS
+    for f in $fn; do $f || status=1; done
+    echo "== $part: $((SECONDS - t0)) s" | tee -a "$log"
+    (cd "$R" && find . -name "*.csv" | tar czf "$RES/${part}_csv.tgz" -T - 2>/dev/null)
+  done
+  return $status
+}
+
+if [ "${BASH_SOURCE[0]}" = "$0" ]; then
+  main "$@"
+  exit $?
+fi
