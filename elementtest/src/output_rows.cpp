@@ -78,7 +78,6 @@ void Driver<Model>::record(ResultTable& out, double t, double r, const ElementSt
                         -sc(1, 1), -s(1, 1),      tau_of(sf),          tau_of(sc),  tau_of(s),     dg.p_f,
                         dg.q_f,   mean_pressure(sc), deviatoric_q(sc), mean_pressure(s), deviatoric_q(s), x.e,
                         x.s * x.s, collisional_share(deviatoric_q(sc), deviatoric_q(sf)), eta, x.eps_pd};
-  (void)r;
   for (int i = 0; i < 22; ++i)
     if (!std::isfinite(row[i])) {
       std::ostringstream os;
@@ -87,6 +86,23 @@ void Driver<Model>::record(ResultTable& out, double t, double r, const ElementSt
          << " is not finite at t = " << t << " s; state: " << state_text(x);
       throw std::runtime_error(os.str());
     }
+  if constexpr (kF) {
+    // Results checked before they are reported: the frictional stress on or inside the yield
+    // surface (guards.hpp), whichever solver produced it.
+    const std::string outside = outside_yield_surface<kLode>(fpar(p_), x.sf, x.eps_pd, x.e);
+    if (!outside.empty()) {
+      std::ostringstream os;
+      os.precision(10);
+      os << "element test '" << test_.name << "': the "
+         << (test_.solver.kind == SolverKind::Cvode ? "CVODE" : "incremental update") << " result ";
+      if (test_.programme.kind == ProgrammeKind::Sweep)
+        os << "for the sweep rate " << r << " 1/s";
+      else
+        os << "of output row " << out.rows() + 1;
+      os << " (t = " << t << " s) is refused: " << outside << "; state: " << state_text(x);
+      throw std::runtime_error(os.str());
+    }
+  }
   for (int i = 0; i < 22; ++i) out.columns[i].push_back(row[i]);
 }
 
