@@ -74,7 +74,14 @@ struct CvodeCallbacks {
     g[0] = mean_pressure(x.sf) / self->sigma_ref_;
     // Offsets make a start exactly on a switch (f = 0 at a K0 state; load = 0 when shearing a
     // coaxial state) count as being on the safe side, so the crossing that follows is seen.
-    g[1] = self->plastic_ ? load / (std::fabs(load) + 1.0) + 1e-10 : f - 1e-8;
+    // Elastic mode entered outside the surface (unloading_outside_) has no f crossing ahead:
+    // loading again (load > 0) is its switch back to plastic.
+    if (self->plastic_)
+      g[1] = load / (std::fabs(load) + 1.0) + 1e-10;
+    else if (self->unloading_outside_)
+      g[1] = load / (std::fabs(load) + 1.0) - 1e-10;
+    else
+      g[1] = f - 1e-8;
     return 0;
   }
 
@@ -165,6 +172,17 @@ void Driver<Model>::run_cvode(ElementState& x, const std::vector<Segment>& segs,
       if (restart) {
         const M3 L0 = grad_v(x, seg_.rate(t), false);
         plastic_ = plastic_at(x, sym(L0));
+        // A plastic phase can end (load = 0) with f above the onset offset where the cone is
+        // narrower than CVODE's stress tolerance (rtol sigma_ref) and q_f <= 1e-6 p_f, which
+        // the projection skips. The onset root f - 1e-8 would start positive there and never
+        // change sign: CVODE integrated elastically through the surface (issue 21, Fig. 4 with
+        // phi_c = 1e-6 deg: q_f = 7.4e13 Pa at p_f = 1e5 Pa).
+        unloading_outside_ = false;
+        if (!plastic_ && kF && !cut_) {
+          double f, load;
+          switch_functions(x, sym(L0), f, load);
+          unloading_outside_ = f - 1e-8 >= 0;
+        }
         pack(x, y);
         int flag = first ? CVodeInit(c.mem, CvodeCallbacks<Model>::rhs, t, c.y) : CVodeReInit(c.mem, t, c.y);
         if (first) {

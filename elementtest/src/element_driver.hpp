@@ -9,8 +9,9 @@
 //
 // The right-hand side is piecewise smooth. The driver is a hybrid system: a mode flag (elastic or
 // plastic) is held fixed between events and CVODE's root finding locates the switches (yield
-// onset f = 0 in elastic mode; the loading indicator n:C:D - h dGm/de de = 0 in plastic mode) and
-// the tension cut-off p_f = 0, after which sigma_f stays 0 (MODEL 3.2 A5, 3.6 "Switches").
+// onset f = 0 in elastic mode, or loading again where elastic mode began outside the surface;
+// the loading indicator n:C:D - h dGm/de de = 0 in plastic mode) and the tension cut-off p_f = 0,
+// after which sigma_f stays 0 (MODEL 3.2 A5, 3.6 "Switches").
 // Rate-programme breakpoints (end of the hold phase, table nodes, jumps) are stop times with a
 // restart, so no step straddles a kink.
 //
@@ -263,6 +264,7 @@ class Driver {
   double sigma_ref_ = 1, s_ref_ = 1;
   Segment seg_{0, 1, 0, 0};
   bool plastic_ = false;
+  bool unloading_outside_ = false;  // elastic mode entered with f above the onset offset (load < 0)
   bool cut_ = false;
   long rhs_evals_ = 0;
   std::string rhs_issue_;  // why the right-hand side last returned a recoverable error

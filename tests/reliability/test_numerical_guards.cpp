@@ -174,32 +174,23 @@ TEST(Guards, YieldGuardBelowThePressureFloorUsesPmin) {
   EXPECT_EQ(gt::detail::outside_yield_surface<LodeShape::SmoothMohrCoulomb>(mp, Mat3<double>::Zero(), 0.01, 0.8), "");
 }
 
-// The case: CVODE integrated elastically far past the narrow cone (q_f = 7.4e13 Pa at
-// p_f = 1e5 Pa). The result is refused at the first row past the surface, naming the row, the
-// time, q_f, p_f and the allowed ratio.
-TEST(Guards, CvodeResultOutsideTheYieldSurfaceIsRefused) {
-  io::ParameterSet set;
-  const gt::ElementTest t = narrow_cone_test(set);
-  std::string e;
-  try {
-    gt::run_element_test(t, set);
-  } catch (const std::runtime_error& x) {
-    e = x.what();
-  }
-  ASSERT_FALSE(e.empty()) << "no error";
-  expect_has(e, "CVODE result of output row 2 (t = 0.01 s)");
-  expect_has(e, "lies outside the yield surface");
-  expect_has(e, "at p_f = 99999.99");
-  expect_has(e, "allowed: <= g M_p h + tol");
-}
-
-// The incremental update of the same case stays on the surface (q_f ~ 0.004 Pa).
-TEST(Guards, IncrementalResultOfTheNarrowConePasses) {
+// The case. CVODE used to integrate elastically far past the narrow cone (q_f = 7.4e13 Pa
+// at p_f = 1e5 Pa; with the guard alone, row 2 was refused): a plastic phase ended with f above
+// the onset offset, so the elastic phase after it had no yield crossing to find. Now it flows on
+// the cone: every row passes the guard, and q_f agrees with the incremental update (~0.004 Pa)
+// within the guard's tolerance (CVODE's stress tolerance, rtol sigma_ref = 0.1 Pa, exceeds the
+// cone's width, and the projection skips q_f <= 1e-6 p_f).
+TEST(Guards, NarrowConeStaysOnTheSurfaceUnderCvodeAndIncremental) {
   io::ParameterSet set;
   gt::ElementTest t = narrow_cone_test(set);
+  const gt::ResultTable cvode = gt::run_element_test(t, set);
   t.solver.kind = gt::SolverKind::Incremental;
   t.solver.dt = 1e-4;
-  const gt::ResultTable r = gt::run_element_test(t, set);
-  EXPECT_LT(r.column("q_f").back(), 0.01);
-  EXPECT_NEAR(r.column("p_f").back(), 1e5, 1.0);
+  const gt::ResultTable incremental = gt::run_element_test(t, set);
+  const double tol = gt::detail::yield_guard_tolerance(*set.frictional);
+  EXPECT_LT(incremental.column("q_f").back(), 0.005);
+  EXPECT_NEAR(incremental.column("p_f").back(), 1e5, 1.0);
+  EXPECT_NEAR(cvode.column("q_f").back(), incremental.column("q_f").back(), tol * 1e5);
+  EXPECT_GT(cvode.column("eps_pd").back(), 0.1);  // it flowed plastically
+  EXPECT_LT(cvode.stats.events, 10);
 }
