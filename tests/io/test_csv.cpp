@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 #include <granflow/io/csv_table.hpp>
@@ -66,4 +67,31 @@ TEST(Csv, MalformedFilesNameFileAndLine) {
 
 TEST(Csv, MissingFile) {
   EXPECT_THROW(io::read_csv_columns("/nonexistent/file.csv", {"x"}), io::InputError);
+}
+
+// A UTF-8 byte-order mark (as spreadsheet programs write it) before the header is skipped, also
+// before a leading comment; line numbers count as without it.
+TEST(Csv, ByteOrderMarkBeforeTheHeaderIsSkipped) {
+  const std::string bom = "\xEF\xBB\xBF";
+  const auto t = io::read_csv_columns(write_csv("bom", bom + "gamma,sigma_n,tau\n0,100,30\n0.1,100,45\n"),
+                                      {"gamma", "tau"});
+  ASSERT_EQ(t.rows(), 2u);
+  EXPECT_EQ(t.column("tau")[1], 45.0);
+  EXPECT_EQ(t.lines[0], 2);
+  const auto c = io::read_csv_columns(write_csv("bom_comment", bom + "# lab\r\nx,y\r\n1,2\r\n"), {"x", "y"});
+  EXPECT_EQ(c.lines[0], 3);
+  EXPECT_EQ(io::parse_csv_columns(bom + "x\n1\n", "mem.csv", {"x"}).column("x")[0], 1.0);
+  // A message quotes the header without the mark.
+  expect_error(bom + "x,y\n1,2\n", {"z"}, "Header found: 'x,y'");
+}
+
+TEST(Csv, HeaderLineSkipsMarkCommentsBlankLinesAndCarriageReturn) {
+  std::istringstream a("\xEF\xBB\xBF# lab\r\n\r\n\nx,y\r\n1,2\r\n");
+  const io::CsvHeaderLine h = io::find_csv_header(a);
+  EXPECT_EQ(h.line, 4);
+  EXPECT_EQ(h.text, "x,y");
+  std::istringstream b("# only a comment\n");
+  EXPECT_EQ(io::find_csv_header(b).line, 0);
+  std::istringstream c("x\n\xEF\xBB\xBFy\n");  // a mark only counts at the start of the text
+  EXPECT_EQ(io::find_csv_header(c).text, "x");
 }
