@@ -64,12 +64,13 @@ std::string list_of(const std::vector<std::string>& names) {
 
 double parse_cell(const char* cell, const std::string& path, long line, const std::string& column) {
   if (!cell || !*cell) throw InputError(where(path, line) + "column '" + column + "': empty cell");
-  errno = 0;
   char* end = nullptr;
   const double v = std::strtod(cell, &end);
   if (end == cell || *end != '\0')
     throw InputError(where(path, line) + "column '" + column + "': '" + cell + "' is not a number");
-  if (!std::isfinite(v) || errno == ERANGE)
+  // Overflow gives +-inf. strtod's ERANGE is no test: it also flags underflow, i.e. every
+  // subnormal (1e-310) and every value that rounds to 0 (1e-400), finite numbers all.
+  if (!std::isfinite(v))
     throw InputError(where(path, line) + "column '" + column + "': '" + cell + "' is not a finite number");
   return v;
 }

@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string>
 
@@ -94,4 +95,19 @@ TEST(Csv, HeaderLineSkipsMarkCommentsBlankLinesAndCarriageReturn) {
   EXPECT_EQ(io::find_csv_header(b).line, 0);
   std::istringstream c("x\n\xEF\xBB\xBFy\n");  // a mark only counts at the start of the text
   EXPECT_EQ(io::find_csv_header(c).text, "x");
+}
+
+// Subnormal numbers are finite numbers (strtod flags them with ERANGE); values below the
+// smallest subnormal round to 0; only overflow is not finite.
+TEST(Csv, SubnormalNumbersAreFinite) {
+  const auto t = io::read_csv_columns(write_csv("subnormal", "x,y\n1,1e-310\n2,-4.9e-324\n3,2.2250738585072014e-308\n4,1e-400\n"),
+                                      {"x", "y"});
+  const auto& y = t.column("y");
+  ASSERT_EQ(y.size(), 4u);
+  EXPECT_EQ(y[0], 1e-310);
+  EXPECT_EQ(y[1], -std::numeric_limits<double>::denorm_min());
+  EXPECT_EQ(y[2], std::numeric_limits<double>::min());
+  EXPECT_EQ(y[3], 0.0);
+  expect_error("x,y\n1,1e400\n", {"x", "y"}, ":2: column 'y': '1e400' is not a finite number");
+  expect_error("x,y\n1,-1e309\n", {"x", "y"}, "'-1e309' is not a finite number");
 }

@@ -2,7 +2,7 @@
 // fast C++ CSV parser (libfccp). Columns are selected by header name; a missing column, a
 // non-numeric or non-finite cell, an empty file or a wrong delimiter is an InputError that
 // names the file, the line and the column. A UTF-8 byte-order mark before the header is
-// skipped.
+// skipped; subnormal numbers (1e-310) are numbers like any other.
 #pragma once
 
 #include <istream>
