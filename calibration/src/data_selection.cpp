@@ -26,29 +26,24 @@ std::string format_value(double v) {
 void check_header(const std::string& path, const std::vector<std::string>& names, const std::string& experiment) {
   std::ifstream in(path);
   if (!in) throw io::InputError(io::where(path) + "cannot open the data file of experiment '" + experiment + "'");
-  std::string line;
-  long n = 0;
-  while (std::getline(in, line)) {
-    ++n;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line[0] == '#') continue;
-    std::vector<std::string> cols;
-    std::stringstream ss(line);
-    std::string c;
-    while (std::getline(ss, c, ',')) {
-      const auto a = c.find_first_not_of(" \t\""), b = c.find_last_not_of(" \t\"");
-      cols.push_back(a == std::string::npos ? "" : c.substr(a, b - a + 1));
-    }
-    for (const auto& want : names)
-      if (std::find(cols.begin(), cols.end(), want) == cols.end())
-        throw io::InputError(io::where(path, n) + "experiment '" + experiment + "' needs column '" + want +
-                             "', which the header '" + line + "' does not have" +
-                             (line.find(';') != std::string::npos || line.find('\t') != std::string::npos
-                                  ? " (the delimiter must be a comma)"
-                                  : ""));
-    return;
+  const io::CsvHeaderLine header = io::find_csv_header(in);  // a byte-order mark skipped
+  if (header.line == 0)
+    throw io::InputError(io::where(path) + "empty file: no header line (data of experiment '" + experiment + "')");
+  const std::string& line = header.text;
+  std::vector<std::string> cols;
+  std::stringstream ss(line);
+  std::string c;
+  while (std::getline(ss, c, ',')) {
+    const auto a = c.find_first_not_of(" \t\""), b = c.find_last_not_of(" \t\"");
+    cols.push_back(a == std::string::npos ? "" : c.substr(a, b - a + 1));
   }
-  throw io::InputError(io::where(path) + "empty file: no header line (data of experiment '" + experiment + "')");
+  for (const auto& want : names)
+    if (std::find(cols.begin(), cols.end(), want) == cols.end())
+      throw io::InputError(io::where(path, header.line) + "experiment '" + experiment + "' needs column '" + want +
+                           "', which the header '" + line + "' does not have" +
+                           (line.find(';') != std::string::npos || line.find('\t') != std::string::npos
+                                ? " (the delimiter must be a comma)"
+                                : ""));
 }
 
 }  // namespace

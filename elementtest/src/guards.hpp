@@ -1,7 +1,9 @@
 // Numerical guards of the element driver: which quantity of a state is non-finite or
-// inadmissible, said in words with its value and the allowed range (for error messages).
+// inadmissible, or whether a reported stress lies outside the yield surface, said in words with
+// its value and the allowed range (for error messages).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <sstream>
@@ -52,6 +54,32 @@ inline std::string inadmissible_state(const Mat3<double>& sf, double eps_pd, dou
     return os.str();
   }
   return "";
+}
+
+// Yield-surface tolerance of reported results, on f = q_f / max(p_f, p_min) - g M_p h, a stress
+// ratio (so relative to p_f): the band 100 ftol + 1e-6 in which the library's substepping counts
+// a state as on the surface (ftol_load of frictional_increment, frictional.hpp). The return map
+// converges to |f| <= ftol (1e3 ftol at round-off on the pressure floor), and CVODE's plastic
+// mode projects onto f = 0 except at the cone vertex q_f <= 1e-6 p_f, where f <= q_f / p_f stays
+// inside the band too.
+inline double yield_guard_tolerance(const FrictionalParams<double>& mp) { return 100.0 * mp.ftol + 1e-6; }
+
+// "" when the frictional stress sf [Pa] lies on or inside the yield surface within
+// yield_guard_tolerance, else its q_f, p_f, stress ratio and the allowed ratio and q_f in words.
+template <LodeShape L>
+std::string outside_yield_surface(const FrictionalParams<double>& mp, const Mat3<double>& sf, double eps_pd,
+                                  double e) {
+  const YieldState<double> y = yield_state<L>(mp, sf, eps_pd, e, Mat3<double>::Zero());
+  const double tol = yield_guard_tolerance(mp);
+  if (y.f <= tol) return "";
+  const double p = mean_pressure(sf), pe = std::max(p, mp.p_min);
+  const double allowed = y.Gm * y.h + tol;
+  std::ostringstream os;
+  os.precision(10);
+  os << "q_f = " << deviatoric_q(sf) << " Pa at p_f = " << p << " Pa lies outside the yield surface: q_f / "
+     << (p > mp.p_min ? "p_f" : "p_min") << " = " << y.r << " (allowed: <= g M_p h + tol = " << y.Gm * y.h
+     << " + " << tol << " = " << allowed << ", i.e. q_f <= " << allowed * pe << " Pa)";
+  return os.str();
 }
 
 // The error and warning bits of UpdateInfo::flags in words.

@@ -4,7 +4,6 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
-#include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -26,7 +25,7 @@ template <unsigned N>
 using Reader = ::io::CSVReader<N, ::io::trim_chars<' ', '\t', '\r'>, ::io::double_quote_escape<',', '"'>,
                                ::io::throw_on_overflow, Comment>;
 
-// The CSV's content: a file on disk (text == nullptr) or text in memory named `path`.
+// The CSV's header for messages: a file on disk (text == nullptr) or text in memory named `path`.
 std::string header_of(const std::string& path, const std::string* text) {
   std::ifstream file;
   std::istringstream mem;
@@ -37,10 +36,8 @@ std::string header_of(const std::string& path, const std::string* text) {
     file.open(path);
     in = &file;
   }
-  std::string line;
-  while (std::getline(*in, line))
-    if (!line.empty() && line[0] != '#') return line.size() > 200 ? line.substr(0, 200) + "..." : line;
-  return "";
+  const std::string line = find_csv_header(*in).text;
+  return line.size() > 200 ? line.substr(0, 200) + "..." : line;
 }
 
 std::string list_of(const std::vector<std::string>& names) {
@@ -67,12 +64,13 @@ std::string list_of(const std::vector<std::string>& names) {
 
 double parse_cell(const char* cell, const std::string& path, long line, const std::string& column) {
   if (!cell || !*cell) throw InputError(where(path, line) + "column '" + column + "': empty cell");
-  errno = 0;
   char* end = nullptr;
   const double v = std::strtod(cell, &end);
   if (end == cell || *end != '\0')
     throw InputError(where(path, line) + "column '" + column + "': '" + cell + "' is not a number");
-  if (!std::isfinite(v) || errno == ERANGE)
+  // Overflow gives +-inf. strtod's ERANGE is no test: it also flags underflow, i.e. every
+  // subnormal (1e-310) and every value that rounds to 0 (1e-400), finite numbers all.
+  if (!std::isfinite(v))
     throw InputError(where(path, line) + "column '" + column + "': '" + cell + "' is not a finite number");
   return v;
 }
@@ -131,6 +129,16 @@ void check_regular_file(const std::string& path) {
 }
 
 }  // namespace
+
+CsvHeaderLine find_csv_header(std::istream& in) {
+  std::string line;
+  for (long n = 1; std::getline(in, line); ++n) {
+    if (n == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);  // UTF-8 byte-order mark
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (!line.empty() && line[0] != '#') return {n, line};
+  }
+  return {};
+}
 
 const std::vector<double>& CsvColumns::column(const std::string& name) const {
   for (std::size_t i = 0; i < names.size(); ++i)

@@ -48,6 +48,15 @@ TEST_F(BadInput, GoodJobLoads) {
 
 // ---- data CSV ------------------------------------------------------------------------
 
+// Spreadsheet programs write a UTF-8 byte-order mark before the header.
+TEST_F(BadInput, CsvByteOrderMarkBeforeTheHeaderIsSkipped) {
+  const CalibrationJob j = load_job(job(std::string("\xEF\xBB\xBF") + kGoodCsv, job_text()));
+  ASSERT_EQ(j.experiments.size(), 1u);
+  EXPECT_EQ(j.experiments[0]->curves[0].x.size(), 3u);
+  const std::string p = job(std::string("\xEF\xBB\xBF") + "nu,p,T,e_r\n0.3,0.38,0.43,0.7\n", job_text());
+  expect_input_error([&] { load_job(p); }, {"data.csv:1:", "needs column 's'", "header 'nu,p,T,e_r'"});
+}
+
 TEST_F(BadInput, CsvMissingColumnNamesFileLineAndColumn) {
   const std::string p = job("nu,p,T,e_r\n0.3,0.38,0.43,0.7\n", job_text());
   expect_input_error([&] { load_job(p); }, {"data.csv:1:", "needs column 's'", "header 'nu,p,T,e_r'"});

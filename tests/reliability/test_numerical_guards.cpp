@@ -1,11 +1,13 @@
-// Numerical guards of the element driver: non-finite or inadmissible states are reported with
-// the time, the quantity and its value instead of propagating NaN into the results.
+// Numerical guards of the element driver: non-finite or inadmissible states, and results outside
+// the yield surface, are reported with the time, the quantity and its value instead of
+// propagating NaN or an impossible stress into the results.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
 #include <string>
 
+#include <granflow/elementtest/paper.hpp>
 #include <granflow/elementtest/run.hpp>
 
 #include "guards.hpp"
@@ -50,6 +52,26 @@ gt::ElementTest compress_to_zero_voids(gt::SolverKind solver) {
   t.output.points = 11;
   t.solver.kind = solver;
   t.solver.dt = 1e-3;
+  return t;
+}
+
+// Triaxial compression (sigma_yy the major compression) of mean pressure p and deviator q.
+Mat3<double> triaxial(double p, double q) {
+  Mat3<double> s = iso(p);
+  s(1, 1) -= 2.0 * q / 3.0;
+  s(0, 0) += q / 3.0;
+  s(2, 2) += q / 3.0;
+  return s;
+}
+
+// Issue 21: Fig. 4's e0 = 0.80 test with a cone of opening ~3.5e-8 (phi_c = 1e-6 degrees) and
+// nu -> -1 (G / K ~ 4.5e6), as `granflow element data/tests/fig4_e080.toml --set ...` runs it.
+gt::ElementTest narrow_cone_test(io::ParameterSet& set) {
+  set = io::load_parameter_set("frictional_element");
+  for (const char* o : {"frictional.K0=120", "frictional.nu=-0.999999", "frictional.n=0", "frictional.phi_c_deg=1e-6"})
+    io::apply_override(set, o);
+  gt::ElementTest t = gt::paper::fig4_test(0.80);
+  t.output.points = 31;
   return t;
 }
 
@@ -117,4 +139,58 @@ TEST(Guards, ResultsBeforeTheLimitAreFinite) {
   for (const auto& c : r.columns)
     for (double v : c) EXPECT_TRUE(std::isfinite(v));
   EXPECT_NEAR(r.column("e").back(), 1.9 * std::exp(-0.6) - 1.0, 1e-4);
+}
+
+// The yield-surface guard: f = q / p - g M_p h is linear in q at fixed p and Lode angle, so the
+// surface and the tolerance band lie at known q.
+TEST(Guards, StressOutsideTheYieldSurfaceIsNamedWithTheAllowedRatio) {
+  const FrictionalParams<double> mp = *io::load_parameter_set("frictional_element").frictional;
+  constexpr LodeShape kL = LodeShape::SmoothMohrCoulomb;
+  const double p = 1e5, e = 0.8, eps_pd = 0.01;
+  const double tol = gt::detail::yield_guard_tolerance(mp);
+  EXPECT_DOUBLE_EQ(tol, 100 * mp.ftol + 1e-6);  // frictional_increment's band "on the surface"
+  const YieldState<double> y = yield_state<kL>(mp, triaxial(p, 1.0), eps_pd, e, Mat3<double>::Zero());
+  const double r_surface = y.Gm * y.h;
+  auto outside = [&](double r) { return gt::detail::outside_yield_surface<kL>(mp, triaxial(p, r * p), eps_pd, e); };
+  EXPECT_EQ(outside(0.5 * r_surface), "");
+  EXPECT_EQ(outside(r_surface), "");
+  EXPECT_EQ(outside(r_surface + 0.9 * tol), "");  // just inside the tolerance
+  const std::string a = outside(r_surface + 1.1 * tol);
+  expect_has(a, "lies outside the yield surface");
+  expect_has(a, "at p_f = 100000 Pa");
+  expect_has(a, "q_f = ");
+  expect_has(a, "q_f / p_f = ");
+  expect_has(a, "allowed: <= g M_p h + tol");
+  expect_has(a, "1.1e-06");
+  expect_has(outside(10.0), "q_f = 1000000 Pa");
+}
+
+// Below p_min the ratio is taken at p_min, as the library's rounded apex does.
+TEST(Guards, YieldGuardBelowThePressureFloorUsesPmin) {
+  const FrictionalParams<double> mp = *io::load_parameter_set("frictional_element").frictional;
+  const double p = 0.5 * mp.p_min;
+  expect_has(gt::detail::outside_yield_surface<LodeShape::SmoothMohrCoulomb>(mp, triaxial(p, 10 * p), 0.01, 0.8),
+             "q_f / p_min = ");
+  EXPECT_EQ(gt::detail::outside_yield_surface<LodeShape::SmoothMohrCoulomb>(mp, Mat3<double>::Zero(), 0.01, 0.8), "");
+}
+
+// The issue's case. CVODE used to integrate elastically far past the narrow cone (q_f = 7.4e13 Pa
+// at p_f = 1e5 Pa; with the guard alone, row 2 was refused): a plastic phase ended with f above
+// the onset offset, so the elastic phase after it had no yield crossing to find. Now it flows on
+// the cone: every row passes the guard, and q_f agrees with the incremental update (~0.004 Pa)
+// within the guard's tolerance (CVODE's stress tolerance, rtol sigma_ref = 0.1 Pa, exceeds the
+// cone's width, and the projection skips q_f <= 1e-6 p_f).
+TEST(Guards, NarrowConeStaysOnTheSurfaceUnderCvodeAndIncremental) {
+  io::ParameterSet set;
+  gt::ElementTest t = narrow_cone_test(set);
+  const gt::ResultTable cvode = gt::run_element_test(t, set);
+  t.solver.kind = gt::SolverKind::Incremental;
+  t.solver.dt = 1e-4;
+  const gt::ResultTable incremental = gt::run_element_test(t, set);
+  const double tol = gt::detail::yield_guard_tolerance(*set.frictional);
+  EXPECT_LT(incremental.column("q_f").back(), 0.005);
+  EXPECT_NEAR(incremental.column("p_f").back(), 1e5, 1.0);
+  EXPECT_NEAR(cvode.column("q_f").back(), incremental.column("q_f").back(), tol * 1e5);
+  EXPECT_GT(cvode.column("eps_pd").back(), 0.1);  // it flowed plastically
+  EXPECT_LT(cvode.stats.events, 10);
 }

@@ -1,9 +1,11 @@
 // Reading numeric columns from CSV files (lab data, DEM data, rate programmes) with the
 // fast C++ CSV parser (libfccp). Columns are selected by header name; a missing column, a
 // non-numeric or non-finite cell, an empty file or a wrong delimiter is an InputError that
-// names the file, the line and the column.
+// names the file, the line and the column. A UTF-8 byte-order mark before the header is
+// skipped; subnormal numbers (1e-310) are numbers like any other.
 #pragma once
 
+#include <istream>
 #include <string>
 #include <vector>
 
@@ -27,6 +29,14 @@ CsvColumns parse_csv_columns(const std::string& text, const std::string& name, c
 
 // Reads one text column (e.g. a label used to split a file into curves).
 std::vector<std::string> read_csv_text_column(const std::string& path, const std::string& name);
+
+// The header: the first line that is neither empty nor a '#' comment, without a UTF-8 byte-order
+// mark at the start of the text or a trailing '\r'. line: its number from 1; 0 when there is none.
+struct CsvHeaderLine {
+  long line = 0;
+  std::string text;
+};
+CsvHeaderLine find_csv_header(std::istream& in);
 
 // Errors unless the column increases strictly (abscissae of a curve).
 void require_strictly_increasing(const CsvColumns& t, const std::string& name);
