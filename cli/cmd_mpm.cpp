@@ -22,7 +22,9 @@
 
 #include "commands.hpp"
 #include <granflow/io/input_error.hpp>
+#include <granflow/io/output.hpp>
 #include <granflow/io/parameter_set.hpp>
+#include <granflow/io/run_folder.hpp>
 #include <granflow/mpm/scene_file.hpp>
 
 namespace granflow::cli {
@@ -136,15 +138,8 @@ struct MpmOptions {
 };
 
 // --restart: the checkpoint in `out`, read and checked against the scene (input errors).
-mpm::Checkpoint load_restart(const MpmOptions& o, const std::string& out, const mpm::SceneSetup& su,
-                             std::uint64_t hash) {
-  if (o.force)
-    throw io::InputError("--restart continues the run in '" + out +
-                         "' and --force would delete it first: give one of them");
+mpm::Checkpoint load_restart(const std::string& out, const mpm::SceneSetup& su, std::uint64_t hash) {
   std::error_code ec;
-  if (!fs::is_directory(out, ec))
-    throw io::InputError("--restart: output directory '" + out +
-                         "' does not exist: nothing to continue (start the run without --restart)");
   const std::string path = out + "/" + mpm::kCheckpointFile;
   if (!fs::exists(path, ec))
     throw io::InputError(io::where(path) +
@@ -160,6 +155,19 @@ mpm::Checkpoint load_restart(const MpmOptions& o, const std::string& out, const 
   }
 }
 
+// The command that continues this run from its checkpoint.
+std::string restart_command(const MpmOptions& o, const std::string& out) {
+  std::string again = "granflow mpm " + o.scene + " --out " + out + " --restart";
+  if (o.backend != "cpu") again += " --backend " + o.backend;
+  if (!o.precision.empty()) again += " --precision " + o.precision;
+  if (o.checkpoint_every > 0) {
+    std::ostringstream os;
+    os << " --checkpoint-every " << o.checkpoint_every;
+    again += os.str();
+  }
+  return again;
+}
+
 void run_mpm(const MpmOptions& o) {
   const mpm::SceneSetup su = setup_from_file(o.scene, o.precision);
   std::string out = o.out;
@@ -168,19 +176,17 @@ void run_mpm(const MpmOptions& o) {
   // a checkpoint resumes in the precision it was written in (fp64 hashes as before)
   if (su.scene.precision != mpm::Precision::FP64)
     hash = mpm::fnv1a(std::string("precision ") + mpm::precision_name(su.scene.precision), hash);
+  // The output folder: locked for this run; --force empties only a granflow run folder,
+  // --restart keeps only what its checkpoint lists.
+  if (o.restart && o.force)
+    throw io::InputError("--restart continues the run in '" + out +
+                         "' and --force would delete it first: give one of them");
+  io::RunFolder folder(out, o.restart ? io::FolderUse::Restart : o.force ? io::FolderUse::Force : io::FolderUse::Fresh,
+                       mpm::kCheckpointFile);
   std::optional<mpm::Checkpoint> resume;
   if (o.restart) {
-    resume = load_restart(o, out, su, hash);
-    for (const auto& e : fs::directory_iterator(out))  // left by a killed run
-      if (e.is_regular_file() && e.path().extension() == ".tmp") fs::remove(e.path());
-  } else if (fs::exists(out) && !fs::is_empty(out) && !o.force) {
-    const bool ck = fs::exists(out + "/" + mpm::kCheckpointFile);
-    throw io::InputError("output directory '" + out + "' exists and is not empty; use --force to overwrite it" +
-                         (ck ? " or --restart to continue from its checkpoint" : ""));
-  }
-  if (o.force && fs::exists(out)) {
-    for (const auto& e : fs::directory_iterator(out))
-      if (e.is_regular_file()) fs::remove(e.path());
+    resume = load_restart(out, su, hash);
+    folder.keep_only(mpm::checkpoint_outputs(*resume));
   }
   auto runner = make_runner(su, o.backend, o.cuda);
   const mpm::Scene& sc = su.scene;
@@ -203,20 +209,18 @@ void run_mpm(const MpmOptions& o) {
   ro.resume = resume ? &*resume : nullptr;
   ro.interrupt = &g_signal;
   mpm::RunSummary s;
-  {
+  try {
     SignalGuard guard;
     s = mpm::run(su, *runner, ro);
+  } catch (const io::OutputError& e) {
+    const bool ck = fs::exists(out + "/" + mpm::kCheckpointFile);
+    throw io::OutputError(std::string(e.what()) + (ck ? "; when that is fixed, continue with: " + restart_command(o, out)
+                                                     : "; when that is fixed, run it again with --force"),
+                          e.os_error());
   }
   if (s.interrupted) {
     const int sig = s.interrupted;
-    std::string again = "granflow mpm " + o.scene + " --out " + out + " --restart";
-    if (o.backend != "cpu") again += " --backend " + o.backend;
-    if (!o.precision.empty()) again += " --precision " + o.precision;
-    if (o.checkpoint_every > 0) {
-      std::ostringstream os;
-      os << " --checkpoint-every " << o.checkpoint_every;
-      again += os.str();
-    }
+    const std::string again = restart_command(o, out);
     std::fprintf(stderr,
                  "granflow: interrupted by %s at t = %.6g s (step %ld); wrote the checkpoint %s and the series so far "
                  "(runout.csv, tracked.csv); continue with: %s\n",
@@ -259,6 +263,17 @@ void run_mpm(const MpmOptions& o) {
       if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "PNG snapshots skipped: '%s' failed\n", cmd.c_str());
     }
   }
+  // the manifest, last: the folder is complete (or stopped by --stop-after, or failed, as it says)
+  std::ostringstream status;
+  status.precision(8);
+  if (!s.ok)
+    status << "failed: " << s.message;
+  else if (s.t_end < sc.duration() * (1 - 1e-12))
+    status << "stopped at t = " << s.t_end << " s (--stop-after)"
+           << (s.checkpoint.empty() ? "" : "; --restart continues from the checkpoint");
+  else
+    status << "complete";
+  folder.complete(status.str());
   if (!s.ok) throw std::runtime_error("run stopped: " + s.message);
 }
 

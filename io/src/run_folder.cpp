@@ -130,7 +130,8 @@ OutputLock::OutputLock(std::string lock_path, const std::string& what) : path_(s
       if (attempt < 10) continue;
       throw InputError(what + ": its lock file " + path_ + " keeps changing; is another run starting there?");
     }
-    const LockContent old = parse_lock(read_fd(fd));
+    previous_ = read_fd(fd);
+    const LockContent old = parse_lock(previous_);
     if (old.pid > 0) {
       if (old.host != host) {
         ::close(fd);
@@ -161,6 +162,16 @@ OutputLock::OutputLock(std::string lock_path, const std::string& what) : path_(s
     fd_ = fd;
     return;
   }
+}
+
+void OutputLock::release_unchanged() noexcept {
+  if (fd_ < 0) return;
+  if (previous_.empty()) {
+    release(true);
+    return;
+  }
+  if (::ftruncate(fd_, 0) == 0) (void)!::pwrite(fd_, previous_.data(), previous_.size(), 0);
+  release(false);
 }
 
 void OutputLock::release(bool remove) noexcept {
@@ -298,34 +309,53 @@ RunFolder::RunFolder(std::string dir, FolderUse use, std::string checkpoint)
   created_ = make_folder(dir_);
   try {
     lock_ = std::make_unique<OutputLock>(join(dir_, kLockFile), "output folder '" + dir_ + "'");
-    const std::vector<std::string> names = [&] {
-      auto all = entries(dir_);
-      all.erase(std::remove(all.begin(), all.end(), std::string(kLockFile)), all.end());
-      return all;
-    }();
+    std::vector<std::string> names = entries(dir_);
+    names.erase(std::remove(names.begin(), names.end(), std::string(kLockFile)), names.end());
     const bool ckpt = !checkpoint_.empty() && has(names, checkpoint_);
     if (use == FolderUse::Fresh && !names.empty())
       throw InputError("output directory '" + dir_ + "' exists and is not empty; use --force to overwrite it" +
                        (ckpt ? " or --restart to continue from its checkpoint" : ""));
-    if (use == FolderUse::Force && !names.empty()) {
-      if (!has(names, kManifestFile) && !ckpt && lock_->took_over().empty())
-        throw InputError("output directory '" + dir_ + "' is not a granflow run folder (it has no " + kManifestFile +
-                         ", " + kLockFile + (checkpoint_.empty() ? "" : " or " + checkpoint_) +
-                         "): --force replaces only folders granflow wrote; remove it yourself or choose another --out");
+    if (use == FolderUse::Force && !names.empty() && !has(names, kManifestFile) && !ckpt &&
+        lock_->took_over().empty())
+      throw InputError("output directory '" + dir_ + "' is not a granflow run folder (it has no " + kManifestFile +
+                       ", " + kLockFile + (checkpoint_.empty() ? "" : " or " + checkpoint_) +
+                       "): --force replaces only folders granflow wrote; remove it yourself or choose another --out");
+    if (use != FolderUse::Restart) engage();
+    if (use == FolderUse::Force)
       for (const auto& n : entries(dir_, true))
         if (n != kLockFile) remove_file(join(dir_, n));
-    }
   } catch (...) {
-    if (lock_) lock_->release(true);
-    if (created_) ::rmdir(dir_.c_str());
+    disengage();
     throw;
   }
+}
+
+void RunFolder::engage() {
+  if (engaged_) return;
+  engaged_ = true;
   if (!lock_->took_over().empty())
     note(lock_->path() + ": took over the lock of " + lock_->took_over() + ", a run that is no longer running");
 }
 
+void RunFolder::disengage() {
+  if (!lock_) {
+    if (created_) ::rmdir(dir_.c_str());
+    return;
+  }
+  if (!lock_->took_over().empty()) {
+    lock_->release_unchanged();
+    return;
+  }
+  lock_->release(true);
+  if (created_) ::rmdir(dir_.c_str());
+}
+
 RunFolder::~RunFolder() {
   if (completed_ || !lock_) return;
+  if (!engaged_) {
+    disengage();
+    return;
+  }
   try {
     auto names = entries(dir_);
     names.erase(std::remove(names.begin(), names.end(), std::string(kLockFile)), names.end());
@@ -342,11 +372,13 @@ RunFolder::~RunFolder() {
 }
 
 void RunFolder::keep_only(const std::vector<std::string>& names) {
+  engage();
   for (const auto& n : entries(dir_, true))
     if (n != kLockFile && !has(names, n)) remove_file(join(dir_, n));
 }
 
 void RunFolder::complete(const std::string& status) {
+  engage();
   write_manifest(dir_, status);
   lock_->release(true);
   completed_ = true;
@@ -363,14 +395,20 @@ StagedFolder::StagedFolder(std::string dir, bool force) : dir_(trimmed(std::move
     throw InputError(where(dir_) + "is a file, not a folder: --out names the folder of the results");
   make_folder(parent);
   lock_ = std::make_unique<OutputLock>(dir_ + ".lock", "output folder '" + dir_ + "'");
+  if (fs::exists(fs::status(dir_, ec))) {
+    std::string refusal;
+    if (!force_)
+      refusal = where(dir_) + "output directory exists; pass --force to replace it";
+    else if (!fs::exists(join(dir_, kManifestFile), ec) && !fs::is_empty(dir_, ec))
+      refusal = where(dir_) + "not a granflow run folder (it has no " + kManifestFile +
+                "): --force replaces only folders granflow wrote; remove it yourself or choose another --out";
+    if (!refusal.empty()) {
+      lock_->release_unchanged();
+      throw InputError(refusal);
+    }
+  }
   if (!lock_->took_over().empty())
     note(lock_->path() + ": took over the lock of " + lock_->took_over() + ", a run that is no longer running");
-  if (fs::exists(fs::status(dir_, ec))) {
-    if (!force_) throw InputError(where(dir_) + "output directory exists; pass --force to replace it");
-    if (!fs::exists(join(dir_, kManifestFile), ec) && !fs::is_empty(dir_, ec))
-      throw InputError(where(dir_) + "not a granflow run folder (it has no " + kManifestFile +
-                       "): --force replaces only folders granflow wrote; remove it yourself or choose another --out");
-  }
   // Folders NAME.tmp-PID / NAME.old-PID of runs that died before they finished (we hold the lock).
   const std::string stem = target.filename().string();
   for (const auto& n : entries(parent)) {

@@ -26,11 +26,13 @@ class OutputLock {
   OutputLock& operator=(const OutputLock&) = delete;
   // Unlocks; `remove` deletes the lock file first (otherwise it stays, unlocked, as a marker).
   void release(bool remove = true) noexcept;
+  // Unlocks leaving the file as it was found (a refused run changes nothing, a stale lock included).
+  void release_unchanged() noexcept;
   const std::string& took_over() const { return took_over_; }  // "pid N on host H", or empty
   const std::string& path() const { return path_; }
 
  private:
-  std::string path_, took_over_;
+  std::string path_, took_over_, previous_;
   int fd_ = -1;
 };
 
@@ -74,16 +76,18 @@ class RunFolder {
   RunFolder(const RunFolder&) = delete;
   RunFolder& operator=(const RunFolder&) = delete;
 
-  // --restart: removes every file but `names` and the lock (frames written after the
-  // checkpoint, a stopped run's final frame and manifest, temporaries).
+  // --restart, once the checkpoint is accepted: removes every file but `names` and the lock
+  // (frames written after the checkpoint, a stopped run's final frame and manifest, temporaries).
   void keep_only(const std::vector<std::string>& names);
   // The run ended by itself: writes the manifest as the last act and releases the lock.
   void complete(const std::string& status);
   const std::string& dir() const { return dir_; }
 
  private:
+  void engage();     // the run uses the folder from here on
+  void disengage();  // leaves the folder as found (a refused run)
   std::string dir_, checkpoint_;
-  bool created_ = false, completed_ = false;
+  bool created_ = false, completed_ = false, engaged_ = false;
   std::unique_ptr<OutputLock> lock_;
 };
 
