@@ -172,7 +172,9 @@ std::string format_report(const Objective& obj, const FitResult& r) {
   return os.str();
 }
 
-void write_outputs(const Objective& obj, const FitResult& r, io::StagedFolder& folder, bool plot) {
+namespace {
+
+void write_staged(const Objective& obj, const FitResult& r, io::StagedFolder& folder, bool plot) {
   const CalibrationJob& job = obj.job();
   const fs::path tmp = folder.staging();
 
@@ -246,6 +248,16 @@ void write_outputs(const Objective& obj, const FitResult& r, io::StagedFolder& f
     }
   }
   folder.commit(r.stop_reason.empty() ? "complete" : "complete (stopped by: " + r.stop_reason + ")");
+}
+
+}  // namespace
+
+void write_outputs(const Objective& obj, const FitResult& r, io::StagedFolder& folder, bool plot) {
+  try {
+    write_staged(obj, r, folder, plot);
+  } catch (const io::OutputError& e) {
+    throw folder.explain(e);
+  }
 }
 
 void write_outputs(const Objective& obj, const FitResult& r, const std::string& dir, bool force, bool plot) {

@@ -443,6 +443,15 @@ const std::string& StagedFolder::staging() {
   return staging_;
 }
 
+OutputError StagedFolder::explain(const OutputError& e) const {
+  std::string m = e.what();
+  if (!staging_.empty())
+    for (std::size_t at; (at = m.find(staging_ + "/")) != std::string::npos;) m.replace(at, staging_.size(), dir_);
+  std::error_code ec;
+  m += fs::exists(dir_, ec) ? "; " + dir_ + " keeps its previous results" : "; no " + dir_ + " was made";
+  return OutputError(m, e.os_error());
+}
+
 void StagedFolder::commit(const std::string& status) {
   write_manifest(staging(), status);
   std::error_code ec;
@@ -451,13 +460,11 @@ void StagedFolder::commit(const std::string& status) {
   const std::string old = dir_ + ".old-" + std::to_string(::getpid());
   const bool replace = fs::exists(dir_, ec);
   if (!e && replace && ::rename(dir_.c_str(), old.c_str()) != 0) e = errno;
-  if (e) throw OutputError(describe_os_error(dir_, "replace the folder", e) + "; it keeps its previous content", e);
+  if (e) throw OutputError(describe_os_error(dir_, "replace the folder", e), e);
   if (::rename(staging_.c_str(), dir_.c_str()) != 0) {
     e = errno;
     if (replace) ::rename(old.c_str(), dir_.c_str());
-    throw OutputError(describe_os_error(dir_, "put the results in place", e) +
-                          (replace ? "; it keeps its previous content" : "; nothing was written"),
-                      e);
+    throw OutputError(describe_os_error(dir_, "put the results in place", e), e);
   }
   committed_ = true;
   if (replace) fs::remove_all(old, ec);

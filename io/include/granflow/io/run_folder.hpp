@@ -5,6 +5,8 @@
 
 #include <cstdint>
 #include <memory>
+
+#include "output.hpp"
 #include <string>
 #include <vector>
 
@@ -106,6 +108,9 @@ class StagedFolder {
   // Writes the manifest into the staging folder, then puts it in DIR's place (the old DIR is
   // removed only once the new one is there) and releases the lock.
   void commit(const std::string& status);
+  // A write into the staging folder failed: the same error, naming the file under DIR and
+  // saying what DIR holds now (its previous results, or nothing).
+  OutputError explain(const OutputError& e) const;
   const std::string& dir() const { return dir_; }
 
  private:
