@@ -213,7 +213,8 @@ void run_mpm(const MpmOptions& o) {
     SignalGuard guard;
     s = mpm::run(su, *runner, ro);
   } catch (const io::OutputError& e) {
-    const bool ck = fs::exists(out + "/" + mpm::kCheckpointFile);
+    std::error_code ec;
+    const bool ck = fs::exists(out + "/" + mpm::kCheckpointFile, ec);
     throw io::OutputError(std::string(e.what()) + (ck ? "; when that is fixed, continue with: " + restart_command(o, out)
                                                      : "; when that is fixed, run it again with --force"),
                           e.os_error());
@@ -260,7 +261,11 @@ void run_mpm(const MpmOptions& o) {
       // the system interpreter has the distribution's matplotlib; a pyenv/venv one may not
       const std::string py = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
       const std::string cmd = py + " '" + script + "' '" + out + "' --fields " + o.png_fields;
-      if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "PNG snapshots skipped: '%s' failed\n", cmd.c_str());
+      if (std::system(cmd.c_str()) != 0) {
+        std::error_code ec;
+        fs::remove_all(out + "/png", ec);  // what it left is not a finished set of snapshots
+        std::fprintf(stderr, "PNG snapshots skipped: '%s' failed\n", cmd.c_str());
+      }
     }
   }
   // the manifest, last: the folder is complete (or stopped by --stop-after, or failed, as it says)

@@ -78,6 +78,30 @@ std::vector<std::string> entries(const std::string& dir, bool regular_only = fal
   return names;
 }
 
+// Regular files below `dir`, as paths relative to it ("png/runout.png"), sorted.
+std::vector<std::string> files_below(const std::string& dir) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code e2;
+    if (it->is_regular_file(e2)) names.push_back(fs::relative(it->path(), dir, e2).generic_string());
+  }
+  if (ec) throw OutputError(describe_os_error(dir, "read the folder", ec.value()), ec.value());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// Removes a file or a folder with what it holds.
+void remove_entry(const std::string& path) {
+  std::error_code ec;
+  if (fs::is_directory(fs::symlink_status(path, ec))) {
+    fs::remove_all(path, ec);
+    if (ec) throw OutputError(describe_os_error(path, "remove", ec.value()), ec.value());
+  } else {
+    remove_file(path);
+  }
+}
+
 bool has(const std::vector<std::string>& names, const std::string& n) {
   return std::find(names.begin(), names.end(), n) != names.end();
 }
@@ -188,13 +212,14 @@ namespace {
 constexpr const char* kManifestHeader =
     "# granflow run manifest 1: SHA-256, size in bytes and name of every file in this folder\n";
 
-bool listed_in_manifest(const std::string& name) {
-  return name != kLockFile && name != kManifestFile && !is_temporary_name(name);
+bool listed_in_manifest(const std::string& relative) {
+  const std::string name = fs::path(relative).filename().string();
+  return relative != kLockFile && relative != kManifestFile && !is_temporary_name(name);
 }
 
-ManifestEntry hash_file(const std::string& path, bool sync) {
+ManifestEntry hash_file(const std::string& path, const std::string& name, bool sync) {
   ManifestEntry e;
-  e.name = fs::path(path).filename().string();
+  e.name = name;
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw OutputError(describe_os_error(path, "read back", errno), errno);
   Sha256 h;
@@ -230,9 +255,9 @@ void write_manifest(const std::string& dir, const std::string& status) {
   std::string one_line = status;
   std::replace(one_line.begin(), one_line.end(), '\n', ' ');
   text += "# status: " + one_line + "\n";
-  for (const auto& name : entries(dir, true)) {
+  for (const auto& name : files_below(dir)) {
     if (!listed_in_manifest(name)) continue;
-    const ManifestEntry e = hash_file(join(dir, name), true);
+    const ManifestEntry e = hash_file(join(dir, name), name, true);
     text += e.sha256 + "  " + std::to_string(e.size) + "  " + e.name + "\n";
   }
   write_file(join(dir, kManifestFile), text, Durability::Sync);
@@ -285,12 +310,12 @@ std::vector<std::string> verify_manifest(const std::string& dir) {
       problems.push_back(e.name + ": missing");
       continue;
     }
-    const ManifestEntry now = hash_file(p, false);
+    const ManifestEntry now = hash_file(p, e.name, false);
     if (now.size != e.size) problems.push_back(e.name + ": " + std::to_string(now.size) + " bytes, the manifest says " +
                                                std::to_string(e.size));
     else if (now.sha256 != e.sha256) problems.push_back(e.name + ": checksum differs");
   }
-  for (const auto& name : entries(dir, true))
+  for (const auto& name : files_below(dir))
     if (listed_in_manifest(name) && !has(listed, name)) problems.push_back(name + ": not in the manifest");
   return problems;
 }
@@ -322,8 +347,8 @@ RunFolder::RunFolder(std::string dir, FolderUse use, std::string checkpoint)
                        "): --force replaces only folders granflow wrote; remove it yourself or choose another --out");
     if (use != FolderUse::Restart) engage();
     if (use == FolderUse::Force)
-      for (const auto& n : entries(dir_, true))
-        if (n != kLockFile) remove_file(join(dir_, n));
+      for (const auto& n : entries(dir_))
+        if (n != kLockFile) remove_entry(join(dir_, n));
   } catch (...) {
     disengage();
     throw;
@@ -373,8 +398,8 @@ RunFolder::~RunFolder() {
 
 void RunFolder::keep_only(const std::vector<std::string>& names) {
   engage();
-  for (const auto& n : entries(dir_, true))
-    if (n != kLockFile && !has(names, n)) remove_file(join(dir_, n));
+  for (const auto& n : entries(dir_))
+    if (n != kLockFile && !has(names, n)) remove_entry(join(dir_, n));
 }
 
 void RunFolder::complete(const std::string& status) {

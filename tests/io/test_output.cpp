@@ -279,10 +279,13 @@ TEST(Manifest, ListsEveryFileWithSizeAndChecksumAndFindsChanges) {
   io::write_file(s.path("a.csv"), "abc");
   io::write_file(s.path("b.vtu"), "");
   std::ofstream(s.path("c.csv.tmp-77")) << "left over";
+  fs::create_directories(s.path("png"));
+  io::write_file(s.path("png/runout.png"), "png");
   io::write_manifest(s.dir.string(), "complete");
   const io::Manifest m = io::read_manifest(s.dir.string());
   EXPECT_EQ(m.status, "complete");
-  ASSERT_EQ(m.files.size(), 2u);
+  ASSERT_EQ(m.files.size(), 3u);
+  EXPECT_EQ(m.files[2].name, "png/runout.png");
   EXPECT_EQ(m.files[0].name, "a.csv");
   EXPECT_EQ(m.files[0].size, 3u);
   EXPECT_EQ(m.files[0].sha256, "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
@@ -305,9 +308,11 @@ TEST(RunFolder, FreshCreatesAndLocksThenCompletes) {
     EXPECT_TRUE(fs::exists(d + "/granflow.lock"));
     EXPECT_THROW(io::RunFolder(d, io::FolderUse::Force, "checkpoint.bin"), io::InputError);  // --force too
     io::write_file(d + "/runout.csv", "t\n0\n");
+    fs::create_directories(d + "/png");
+    io::write_file(d + "/png/runout.png", "png");
     f.complete("complete");
   }
-  EXPECT_EQ(listing(d), (std::vector<std::string>{"granflow.manifest", "runout.csv"}));
+  EXPECT_EQ(listing(d), (std::vector<std::string>{"granflow.manifest", "png", "runout.csv"}));
   EXPECT_TRUE(io::verify_manifest(d).empty());
   // fresh refuses it, leaving it as it was
   try {
@@ -316,7 +321,7 @@ TEST(RunFolder, FreshCreatesAndLocksThenCompletes) {
   } catch (const io::InputError& e) {
     EXPECT_NE(std::string(e.what()).find("exists and is not empty; use --force"), std::string::npos);
   }
-  EXPECT_EQ(listing(d), (std::vector<std::string>{"granflow.manifest", "runout.csv"}));
+  EXPECT_EQ(listing(d), (std::vector<std::string>{"granflow.manifest", "png", "runout.csv"}));
   {  // force empties it
     io::RunFolder f(d, io::FolderUse::Force, "checkpoint.bin");
     EXPECT_EQ(listing(d), std::vector<std::string>{"granflow.lock"});
@@ -372,6 +377,8 @@ TEST(RunFolder, RestartKeepsOnlyTheCheckpointsFiles) {
   for (const char* n : {"checkpoint.bin", "frames.pvd", "frame_0000.vtu", "frame_0001_final.vtu", "granflow.manifest",
                         "profile_final.csv", "runout.csv.tmp-12"})
     std::ofstream(d + "/" + n) << n;
+  fs::create_directories(d + "/png");
+  std::ofstream(d + "/png/runout.png") << "snapshot of the stopped run";
   {
     io::RunFolder f(d, io::FolderUse::Restart, "checkpoint.bin");
     f.keep_only({"checkpoint.bin", "frames.pvd", "frame_0000.vtu"});

@@ -51,8 +51,8 @@ struct Manifest {
   std::string status;  // "complete", "stopped at ...", "failed: ..."
   std::vector<ManifestEntry> files;
 };
-// Syncs every regular file of `dir` (not the lock, the manifest or temporaries) to disk, then
-// writes the manifest listing them by name with size and SHA-256, synced too.
+// Syncs every regular file below `dir` (not the lock, the manifest or temporaries) to disk, then
+// writes the manifest listing them by relative path ("png/runout.png") with size and SHA-256.
 void write_manifest(const std::string& dir, const std::string& status);
 // Reads DIR/granflow.manifest (InputError when it is absent or malformed).
 Manifest read_manifest(const std::string& dir);
@@ -63,7 +63,7 @@ std::vector<std::string> verify_manifest(const std::string& dir);
 
 enum class FolderUse {
   Fresh,    // the folder must be absent or empty
-  Force,    // a granflow run folder is emptied first; anything else is refused
+  Force,    // a granflow run folder is emptied first (subfolders too); anything else is refused
   Restart,  // the folder must exist; the caller checks its checkpoint, then keep_only()
 };
 
@@ -78,8 +78,9 @@ class RunFolder {
   RunFolder(const RunFolder&) = delete;
   RunFolder& operator=(const RunFolder&) = delete;
 
-  // --restart, once the checkpoint is accepted: removes every file but `names` and the lock
-  // (frames written after the checkpoint, a stopped run's final frame and manifest, temporaries).
+  // --restart, once the checkpoint is accepted: removes everything but the files `names` and
+  // the lock (frames written after the checkpoint, a stopped run's final frame, manifest and
+  // snapshot folder, temporaries).
   void keep_only(const std::vector<std::string>& names);
   // The run ended by itself: writes the manifest as the last act and releases the lock.
   void complete(const std::string& status);
