@@ -451,3 +451,31 @@ TEST(StagedFolder, RemovesTheStagingFolderOfADeadRun) {
   EXPECT_NE(notes[0].find("did not finish"), std::string::npos) << notes[0];
   EXPECT_TRUE(listing(s.dir).empty());
 }
+
+// Every path through the layer, failures and refusals included, closes what it opened.
+TEST(OutputFile, NoDescriptorIsLeaked) {
+  auto open_fds = [] {
+    std::size_t n = 0;
+    for ([[maybe_unused]] const auto& e : fs::directory_iterator("/proc/self/fd")) ++n;
+    return n;
+  };
+  if (!fs::exists("/proc/self/fd")) GTEST_SKIP() << "no /proc";
+  Scratch s;
+  const std::size_t before = open_fds();
+  for (auto step : {io::WriteStep::Open, io::WriteStep::Write, io::WriteStep::Sync, io::WriteStep::Close,
+                    io::WriteStep::Rename}) {
+    Fault f(fail_at(step, 10));
+    EXPECT_THROW(io::write_file(s.path("a.csv"), big_text(100)), io::OutputError);
+    EXPECT_THROW(io::write_manifest(s.dir.string(), "complete"), io::OutputError);
+  }
+  io::write_file(s.path("a.csv"), "x\n");
+  io::write_manifest(s.dir.string(), "complete");
+  EXPECT_TRUE(io::verify_manifest(s.dir.string()).empty());
+  {
+    io::RunFolder held(s.path("run"), io::FolderUse::Fresh, "checkpoint.bin");
+    EXPECT_THROW(io::RunFolder(s.path("run"), io::FolderUse::Force, "checkpoint.bin"), io::InputError);
+    Fault f(fail_at(io::WriteStep::Write));
+    EXPECT_THROW(io::OutputLock(s.path("other.lock"), "x"), io::OutputError);
+  }
+  EXPECT_EQ(open_fds(), before);
+}
