@@ -12,6 +12,7 @@
 #include "commands.hpp"
 #include <granflow/io/input_error.hpp>
 #include <granflow/io/parameter_set.hpp>
+#include <granflow/io/run_folder.hpp>
 
 namespace granflow::cli {
 
@@ -42,6 +43,7 @@ void run_calibrate(const CalibrateOptions& o) {
     s.noise = o.noise;
     s.seed = o.seed;
     s.stride = o.stride;
+    s.force = o.force;
     synthesize_job_data(o.job, s);
     std::cerr << "calibrate: wrote the data files of the element experiments of " << o.job << " from "
               << s.truth.file << " (noise " << o.noise << ", seed " << o.seed << ")\n";
@@ -49,15 +51,15 @@ void run_calibrate(const CalibrateOptions& o) {
   }
   const CalibrationJob job = load_job(o.job);
   const std::string out = o.out.empty() ? fs::path(o.job).stem().string() + "_fit" : o.out;
-  if (fs::exists(out) && !o.force)
-    throw io::InputError(io::where(out) + "output directory exists; pass --force to replace it");
+  // locked for the whole fit; an existing folder is refused unless --force and granflow's
+  io::StagedFolder folder(out, o.force);
   Objective obj(job, o.threads);
   FitOptions fo;
   fo.progress = !o.quiet;
   fo.evaluate_only = o.evaluate;
   const FitResult r = fit(obj, fo);
   if (!o.quiet) std::cout << format_report(obj, r);
-  write_outputs(obj, r, out, o.force, !o.no_plot);
+  write_outputs(obj, r, folder, !o.no_plot);
   std::cerr << "calibrate: wrote " << out << "/" << job.output_name << ".toml and the reports in " << out << "/\n";
 }
 
@@ -85,7 +87,7 @@ void register_calibrate(CLI::App& app) {
   auto* cmd = app.add_subcommand("calibrate", "Fit a parameter set to measured curves (docs/calibration.md)");
   cmd->add_option("job", o->job, "Calibration job (TOML)");
   cmd->add_option("--out", o->out, "Output directory (default: <job>_fit)");
-  cmd->add_flag("--force", o->force, "Replace an existing output directory");
+  cmd->add_flag("--force", o->force, "Replace an existing output directory (one granflow wrote), or with --synthesize the data files");
   cmd->add_option("--threads", o->threads, "Threads for the objective (0: all cores)")->capture_default_str();
   cmd->add_flag("--no-plot", o->no_plot, "Do not draw fit.png");
   cmd->add_flag("--quiet", o->quiet, "No progress line, no report on stdout");

@@ -1,11 +1,8 @@
 // granflow element: drive one material point through an element test (CVODE or the MPM's
 // incremental update) and write the CSV time series. Also `granflow bench element`.
-#include <unistd.h>
-
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -15,6 +12,7 @@
 
 #include "commands.hpp"
 #include <granflow/io/input_error.hpp>
+#include <granflow/io/output.hpp>
 #include <granflow/io/parameter_set.hpp>
 
 namespace granflow::cli {
@@ -45,28 +43,11 @@ void check_output_path(const std::string& path, bool force) {
     throw io::InputError(io::where(path) + "file exists; use --force to overwrite it");
 }
 
-// Writes text to path through a temporary name and a rename; refuses to overwrite unless force.
-// On failure the temporary is removed and an existing file at path is left as it was.
-void write_atomically(const std::string& path, const std::string& text, bool force) {
-  namespace fs = std::filesystem;
+// Writes text to path through the output layer; refuses to overwrite unless force. On failure
+// nothing is left under a temporary name and an existing file at path is left as it was.
+void write_result(const std::string& path, const std::string& text, bool force) {
   check_output_path(path, force);
-  const std::string tmp = path + ".tmp" + std::to_string(::getpid());
-  std::error_code ec;
-  {
-    std::ofstream os(tmp);
-    if (!os) throw io::InputError(io::where(path) + "cannot write (temporary " + tmp + " could not be created)");
-    os << text;
-    os.close();
-    if (!os) {
-      fs::remove(tmp, ec);
-      throw io::InputError(io::where(path) + "write failed (disk full?); nothing was written");
-    }
-  }
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw io::InputError(io::where(path) + "cannot replace the file: " + ec.message());
-  }
+  io::write_file(path, text);
 }
 
 void print_table(const elementtest::ResultTable& r, int rows) {
@@ -119,7 +100,7 @@ void run_element(const ElementOptions& o) {
   if (o.out.empty()) {
     print_table(r, 21);
   } else {
-    write_atomically(o.out, r.to_csv(), o.force);
+    write_result(o.out, r.to_csv(), o.force);
     std::printf("wrote %s (%zu rows)\n", o.out.c_str(), r.rows());
   }
   std::printf("# %ld steps, %ld right-hand-side evaluations, %ld events, %.3f ms CPU%s\n", r.stats.steps,

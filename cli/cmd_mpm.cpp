@@ -22,7 +22,9 @@
 
 #include "commands.hpp"
 #include <granflow/io/input_error.hpp>
+#include <granflow/io/output.hpp>
 #include <granflow/io/parameter_set.hpp>
+#include <granflow/io/run_folder.hpp>
 #include <granflow/mpm/scene_file.hpp>
 
 namespace granflow::cli {
@@ -177,15 +179,8 @@ struct MpmOptions {
 };
 
 // --restart: the checkpoint in `out`, read and checked against the scene (input errors).
-mpm::Checkpoint load_restart(const MpmOptions& o, const std::string& out, const mpm::SceneSetup& su,
-                             std::uint64_t hash) {
-  if (o.force)
-    throw io::InputError("--restart continues the run in '" + out +
-                         "' and --force would delete it first: give one of them");
+mpm::Checkpoint load_restart(const std::string& out, const mpm::SceneSetup& su, std::uint64_t hash) {
   std::error_code ec;
-  if (!fs::is_directory(out, ec))
-    throw io::InputError("--restart: output directory '" + out +
-                         "' does not exist: nothing to continue (start the run without --restart)");
   const std::string path = out + "/" + mpm::kCheckpointFile;
   if (!fs::exists(path, ec))
     throw io::InputError(io::where(path) +
@@ -201,6 +196,19 @@ mpm::Checkpoint load_restart(const MpmOptions& o, const std::string& out, const 
   }
 }
 
+// The command that continues this run from its checkpoint.
+std::string restart_command(const MpmOptions& o, const std::string& out) {
+  std::string again = "granflow mpm " + o.scene + " --out " + out + " --restart" + override_args(o.overrides);
+  if (o.backend != "cpu") again += " --backend " + o.backend;
+  if (!o.precision.empty()) again += " --precision " + o.precision;
+  if (o.checkpoint_every > 0) {
+    std::ostringstream os;
+    os << " --checkpoint-every " << o.checkpoint_every;
+    again += os.str();
+  }
+  return again;
+}
+
 void run_mpm(const MpmOptions& o) {
   const mpm::SceneSetup su = setup_from_file(o.scene, o.overrides, o.precision);
   std::string out = o.out;
@@ -209,19 +217,17 @@ void run_mpm(const MpmOptions& o) {
   // a checkpoint resumes in the precision it was written in (fp64 hashes as before)
   if (su.scene.precision != mpm::Precision::FP64)
     hash = mpm::fnv1a(std::string("precision ") + mpm::precision_name(su.scene.precision), hash);
+  // The output folder: locked for this run; --force empties only a granflow run folder,
+  // --restart keeps only what its checkpoint lists.
+  if (o.restart && o.force)
+    throw io::InputError("--restart continues the run in '" + out +
+                         "' and --force would delete it first: give one of them");
+  io::RunFolder folder(out, o.restart ? io::FolderUse::Restart : o.force ? io::FolderUse::Force : io::FolderUse::Fresh,
+                       mpm::kCheckpointFile);
   std::optional<mpm::Checkpoint> resume;
   if (o.restart) {
-    resume = load_restart(o, out, su, hash);
-    for (const auto& e : fs::directory_iterator(out))  // left by a killed run
-      if (e.is_regular_file() && e.path().extension() == ".tmp") fs::remove(e.path());
-  } else if (fs::exists(out) && !fs::is_empty(out) && !o.force) {
-    const bool ck = fs::exists(out + "/" + mpm::kCheckpointFile);
-    throw io::InputError("output directory '" + out + "' exists and is not empty; use --force to overwrite it" +
-                         (ck ? " or --restart to continue from its checkpoint" : ""));
-  }
-  if (o.force && fs::exists(out)) {
-    for (const auto& e : fs::directory_iterator(out))
-      if (e.is_regular_file()) fs::remove(e.path());
+    resume = load_restart(out, su, hash);
+    folder.keep_only(mpm::checkpoint_outputs(*resume));
   }
   auto runner = make_runner(su, o.backend, o.cuda);
   const mpm::Scene& sc = su.scene;
@@ -244,20 +250,19 @@ void run_mpm(const MpmOptions& o) {
   ro.resume = resume ? &*resume : nullptr;
   ro.interrupt = &g_signal;
   mpm::RunSummary s;
-  {
+  try {
     SignalGuard guard;
     s = mpm::run(su, *runner, ro);
+  } catch (const io::OutputError& e) {
+    std::error_code ec;
+    const bool ck = fs::exists(out + "/" + mpm::kCheckpointFile, ec);
+    throw io::OutputError(std::string(e.what()) + (ck ? "; when that is fixed, continue with: " + restart_command(o, out)
+                                                     : "; when that is fixed, run it again with --force"),
+                          e.os_error());
   }
   if (s.interrupted) {
     const int sig = s.interrupted;
-    std::string again = "granflow mpm " + o.scene + " --out " + out + " --restart" + override_args(o.overrides);
-    if (o.backend != "cpu") again += " --backend " + o.backend;
-    if (!o.precision.empty()) again += " --precision " + o.precision;
-    if (o.checkpoint_every > 0) {
-      std::ostringstream os;
-      os << " --checkpoint-every " << o.checkpoint_every;
-      again += os.str();
-    }
+    const std::string again = restart_command(o, out);
     std::fprintf(stderr,
                  "granflow: interrupted by %s at t = %.6g s (step %ld); wrote the checkpoint %s and the series so far "
                  "(runout.csv, tracked.csv); continue with: %s\n",
@@ -298,9 +303,24 @@ void run_mpm(const MpmOptions& o) {
       // the system interpreter has the distribution's matplotlib; a pyenv/venv one may not
       const std::string py = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
       const std::string cmd = py + " '" + script + "' '" + out + "' --fields " + o.png_fields;
-      if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "PNG snapshots skipped: '%s' failed\n", cmd.c_str());
+      if (std::system(cmd.c_str()) != 0) {
+        std::error_code ec;
+        fs::remove_all(out + "/png", ec);  // what it left is not a finished set of snapshots
+        std::fprintf(stderr, "PNG snapshots skipped: '%s' failed\n", cmd.c_str());
+      }
     }
   }
+  // the manifest, last: the folder is complete (or stopped by --stop-after, or failed, as it says)
+  std::ostringstream status;
+  status.precision(8);
+  if (!s.ok)
+    status << "failed: " << s.message;
+  else if (s.t_end < sc.duration() * (1 - 1e-12))
+    status << "stopped at t = " << s.t_end << " s (--stop-after)"
+           << (s.checkpoint.empty() ? "" : "; --restart continues from the checkpoint");
+  else
+    status << "complete";
+  folder.complete(status.str());
   if (!s.ok) throw std::runtime_error("run stopped: " + s.message);
 }
 
@@ -337,7 +357,7 @@ void register_mpm(CLI::App& app) {
   auto* cmd = app.add_subcommand("mpm", "Run an MPM scene (mpm/scenes/*.toml)");
   cmd->add_option("scene", o->scene, "scene file")->required()->check(CLI::ExistingFile);
   cmd->add_option("--out", o->out, "output directory (default mpm_out/<scene>)");
-  cmd->add_flag("--force", o->force, "overwrite an existing output directory");
+  cmd->add_flag("--force", o->force, "replace the output folder of an earlier granflow run (one with a manifest, checkpoint or stale lock); any other folder is refused");
   cmd->add_option("--backend", o->backend, "cpu (OpenMP twin) or cuda")->check(CLI::IsMember({"cpu", "cuda"}));
   cmd->add_option("--stop-after", o->stop_after, "stop at this simulated time [s] (throughput runs)");
   cmd->add_option("--checkpoint-every", o->checkpoint_every,

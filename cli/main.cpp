@@ -5,6 +5,7 @@
 
 #include "commands.hpp"
 #include <granflow/io/input_error.hpp>
+#include <granflow/io/output.hpp>
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -39,6 +40,10 @@ int main(int argc, char** argv) {
     return e.get_exit_code() == 0 ? 2 : e.get_exit_code();
   } catch (const granflow::cli::ExitStatus& e) {
     return e.code;
+  } catch (const granflow::io::OutputError& e) {
+    // a full disk, a read-only or forbidden folder: the user can fix it (2); EIO and the like: 1
+    std::cerr << "granflow: error: " << e.what() << "\n";
+    return e.user_fixable() ? 2 : 1;
   } catch (const granflow::io::InputError& e) {
     std::cerr << "granflow: error: " << e.what() << "\n";
     return 2;

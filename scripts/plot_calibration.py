@@ -43,6 +43,11 @@ def ylabel(data_column, output):
     return "%s  (model: %s) [%s]" % (data_column, output, UNITS.get(output, "-"))
 
 
+def number(cell):
+    """An empty cell is a value granflow could not compute (the model failed there)."""
+    return float(cell) if cell else float("nan")
+
+
 def main():
     if len(sys.argv) < 3:
         sys.exit(__doc__)
@@ -60,8 +65,8 @@ def main():
             c = "C%d" % (k % 10)
             x = [float(p["x"]) for p in pts]
             y = [float(p["data"]) for p in pts]
-            m0 = [float(p["model_start"]) for p in pts]
-            m1 = [float(p["model_fit"]) for p in pts]
+            m0 = [number(p["model_start"]) for p in pts]
+            m1 = [number(p["model_fit"]) for p in pts]
             positive = positive and min(y) > 0
             ax.plot(x, y, "o", color=c, ms=4, label=name)
             ax.plot(x, m0, "--", color=c, lw=0.8, alpha=0.6)

@@ -2,10 +2,10 @@
 // reads it; the model curve is the driver's result column interpolated at the data abscissae.
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <iomanip>
 #include <limits>
 #include <random>
+#include <sstream>
 
 #include "granflow/calibration/experiment.hpp"
 #include <granflow/io/input_error.hpp>
@@ -106,32 +106,29 @@ std::vector<std::shared_ptr<const Experiment>> make_element_experiments(const st
   return out;
 }
 
-void synthesize_element_data(const DataSelection& sel, io::TomlTable& test_table, const std::string& model_abscissa,
-                             const io::ParameterSet& truth, double noise, unsigned long seed, long stride) {
+std::string synthesize_element_data(const DataSelection& sel, io::TomlTable& test_table,
+                                    const std::string& model_abscissa, const io::ParameterSet& truth, double noise,
+                                    unsigned long seed, long stride) {
   const elementtest::ElementTest test = elementtest::parse_element_test(test_table);
   const elementtest::ResultTable r = elementtest::run_element_test(test, truth);
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> normal(0.0, 1.0);
-  const std::string tmp = sel.file + ".tmp";
-  {
-    std::ofstream out(tmp);
-    if (!out) throw io::InputError(io::where(sel.file) + "cannot write the synthetic data file");
-    out << "# synthetic data: element test with parameter set '" << truth.name << "', relative noise " << noise
-        << ", seed " << seed << "\n";
-    out << sel.abscissa;
-    for (const auto& [col, o] : sel.targets) out << "," << col;
-    out << "\n" << std::setprecision(10);
-    const auto& x = r.column(model_abscissa);
-    double last = -std::numeric_limits<double>::infinity();
-    for (std::size_t i = 1; i < x.size(); i += static_cast<std::size_t>(stride)) {
-      if (!(x[i] > last)) continue;
-      last = x[i];
-      out << x[i];
-      for (const auto& [col, o] : sel.targets) out << "," << r.column(o)[i] * (1.0 + noise * normal(rng));
-      out << "\n";
-    }
+  std::ostringstream out;
+  out << "# synthetic data: element test with parameter set '" << truth.name << "', relative noise " << noise
+      << ", seed " << seed << "\n";
+  out << sel.abscissa;
+  for (const auto& [col, o] : sel.targets) out << "," << col;
+  out << "\n" << std::setprecision(10);
+  const auto& x = r.column(model_abscissa);
+  double last = -std::numeric_limits<double>::infinity();
+  for (std::size_t i = 1; i < x.size(); i += static_cast<std::size_t>(stride)) {
+    if (!(x[i] > last)) continue;
+    last = x[i];
+    out << x[i];
+    for (const auto& [col, o] : sel.targets) out << "," << r.column(o)[i] * (1.0 + noise * normal(rng));
+    out << "\n";
   }
-  std::rename(tmp.c_str(), sel.file.c_str());
+  return out.str();
 }
 
 #else
@@ -143,8 +140,8 @@ std::vector<std::shared_ptr<const Experiment>> make_element_experiments(const st
                           "element-test driver (granflow_elementtest); data file " + sel.file);
 }
 
-void synthesize_element_data(const DataSelection& sel, io::TomlTable&, const std::string&, const io::ParameterSet&,
-                             double, unsigned long, long) {
+std::string synthesize_element_data(const DataSelection& sel, io::TomlTable&, const std::string&,
+                                    const io::ParameterSet&, double, unsigned long, long) {
   throw io::InputError(io::where(sel.file) + "synthetic element data need the element-test driver (not built)");
 }
 

@@ -190,25 +190,43 @@ Identifiability identifiability(const Objective& obj, const std::vector<double>&
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(A);
   const double lmax = es.eigenvalues().cwiseAbs().maxCoeff();
   Eigen::VectorXd inv = Eigen::VectorXd::Zero(n);
+  std::vector<bool> in_null(n, false);  // a direction that changes no curve moves this parameter
   for (std::size_t k = 0; k < n; ++k) {
     const double l = es.eigenvalues()(k);
-    if (l > 1e-12 * lmax && l > 0)
+    if (l > 1e-12 * lmax && l > 0) {
       inv(k) = 1.0 / l;
-    else
-      id.singular = true;
+      continue;
+    }
+    id.singular = true;
+    for (std::size_t j = 0; j < n; ++j)
+      if (std::fabs(es.eigenvectors()(j, k)) > 1e-6) in_null[j] = true;
   }
   const Eigen::MatrixXd C = es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose();
   const Evaluation e0 = obj.evaluate(theta);
-  const double s2 = N > n ? e0.misfit / static_cast<double>(N - n) : std::numeric_limits<double>::quiet_NaN();
-  id.correlation = Eigen::MatrixXd::Constant(n, n, std::numeric_limits<double>::quiet_NaN());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double s2 = N > n ? e0.misfit / static_cast<double>(N - n) : nan;
+  std::vector<bool> covaries(n);  // the correlations of j are defined (rel_sd also needs s2)
   for (std::size_t j = 0; j < n; ++j) {
-    id.rel_sd.push_back(C(j, j) > 0 && !id.singular ? std::sqrt(s2 * C(j, j)) : std::numeric_limits<double>::infinity());
-    for (std::size_t k = 0; k < n; ++k)
-      if (C(j, j) > 0 && C(k, k) > 0) id.correlation(j, k) = C(j, k) / std::sqrt(C(j, j) * C(k, k));
+    std::string why;
+    if (S.col(j).cwiseAbs().maxCoeff() == 0.0)
+      why = "no curve changes with it at these parameter values (zero sensitivity; e.g. a packing fraction beyond "
+            "the data's range)";
+    else if (in_null[j])
+      why = "the Jacobian is rank-deficient: it trades off with other free parameters without changing any curve";
+    else if (!(C(j, j) > 0))
+      why = "its variance from the Jacobian is not positive";
+    covaries[j] = why.empty();
+    if (why.empty() && N <= n) why = "as many free parameters as data points: no residual to estimate a spread from";
+    id.undefined.push_back(why);
+    id.rel_sd.push_back(why.empty() ? std::sqrt(s2 * C(j, j)) : nan);
   }
+  id.correlation = Eigen::MatrixXd::Constant(n, n, nan);
+  for (std::size_t j = 0; j < n; ++j)
+    for (std::size_t k = 0; k < n; ++k)
+      if (covaries[j] && covaries[k]) id.correlation(j, k) = C(j, k) / std::sqrt(C(j, j) * C(k, k));
   for (std::size_t j = 0; j < n; ++j)
     for (std::size_t k = j + 1; k < n; ++k)
-      if (!(std::fabs(id.correlation(j, k)) <= 0.95)) id.correlated.emplace_back(j, k);
+      if (std::isfinite(id.correlation(j, k)) && std::fabs(id.correlation(j, k)) > 0.95) id.correlated.emplace_back(j, k);
   return id;
 }
 

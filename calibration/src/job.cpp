@@ -9,6 +9,7 @@
 #include "granflow/calibration/parameters.hpp"
 #include "granflow/calibration/synthesize.hpp"
 #include <granflow/io/input_error.hpp>
+#include <granflow/io/output.hpp>
 #include <granflow/io/toml_reader.hpp>
 
 namespace granflow::calibration {
@@ -197,6 +198,7 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
   auto exps = root.array_of_tables("experiments");
   if (exps.empty()) root.fail("experiments", "a job needs at least one [[experiments]] entry");
   std::set<std::string> names;
+  std::vector<std::pair<std::string, std::string>> synthetic;  // file, text: written once all are made
   for (std::size_t i = 0; i < exps.size(); ++i) {
     io::TomlTable& t = exps[i];
     const bool synth_this = synth && t.raw().get("kind") && t.raw().get("kind")->value_or(std::string()) == "element";
@@ -205,7 +207,11 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
     if (p.kind == "element") {
       io::TomlTable test = t.table("test");
       if (synth_this) {
-        synthesize_element_data(p.sel, test, p.model_abscissa, synth->truth, synth->noise, synth->seed + i, synth->stride);
+        std::error_code ec;
+        if (!synth->force && fs::exists(p.sel.file, ec))
+          t.fail("data", p.sel.file + " exists; pass --force to replace it with synthetic data");
+        synthetic.emplace_back(p.sel.file, synthesize_element_data(p.sel, test, p.model_abscissa, synth->truth,
+                                                                   synth->noise, synth->seed + i, synth->stride));
         t.finish();
         continue;
       }
@@ -220,7 +226,10 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
     t.finish();
   }
   root.finish();
-  if (synth) return job;
+  if (synth) {
+    for (const auto& [file, text] : synthetic) io::write_file(file, text);
+    return job;
+  }
 
   // Steady shear: the closed forms exist only below V_sd; no data point may reach the lowest V_sd the fit may try.
   double vsd_min = job.start.collisional ? job.start.collisional->V_sd - job.start.collisional->vs_gap : 1.0;

@@ -4,16 +4,16 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
 
-#include <unistd.h>
 
 #include "granflow/calibration/experiment.hpp"
 #include "granflow/calibration/fit.hpp"
 #include <granflow/io/input_error.hpp>
+#include <granflow/io/output.hpp>
+#include <granflow/io/run_folder.hpp>
 #include <granflow/io/toml_reader.hpp>
 
 #ifndef GRANFLOW_SOURCE_DIR
@@ -32,6 +32,18 @@ std::string num(double v, int prec = 6) {
   return os.str();
 }
 
+// A number in the report; "-" where the quantity is undefined (the reason is printed below it).
+std::string shown(double v, int prec = 6) { return std::isfinite(v) ? num(v, prec) : "-"; }
+
+// A number cell of a CSV: empty where the quantity is undefined, never nan or inf.
+struct Cell {
+  double v;
+};
+std::ostream& operator<<(std::ostream& os, Cell c) {
+  if (std::isfinite(c.v)) os << c.v;
+  return os;
+}
+
 std::string csv_quote(const std::string& s) {
   if (s.find_first_of(",\"") == std::string::npos) return s;
   std::string out = "\"";
@@ -39,11 +51,8 @@ std::string csv_quote(const std::string& s) {
   return out + "\"";
 }
 
-void write_file(const fs::path& p, const std::string& text) {
-  std::ofstream out(p);
-  out << text;
-  if (!out) throw std::runtime_error("cannot write " + p.string());
-}
+// Synced with the others when the manifest is written.
+void write_file(const fs::path& p, const std::string& text) { io::write_file(p.string(), text, io::Durability::Buffered); }
 
 std::string fitted_toml(const CalibrationJob& job, const FitResult& r) {
   io::ParameterSet s = r.fitted;
@@ -107,10 +116,14 @@ std::string format_report(const Objective& obj, const FitResult& r) {
     const FreeParameter& p = job.free[j];
     os << std::left << std::setw(24) << p.key << std::right << std::setw(13) << num(r.start[j]) << std::setw(13)
        << num(r.theta[j]) << std::setw(12) << num(p.lower) << std::setw(12) << num(p.upper) << std::setw(8)
-       << (p.log ? "log" : "lin") << std::setw(10) << num(r.identifiability.rel_sd[j], 3) << "  "
+       << (p.log ? "log" : "lin") << std::setw(10) << shown(r.identifiability.rel_sd[j], 3) << "  "
        << (r.on_bound[j] < 0 ? "ON LOWER BOUND" : r.on_bound[j] > 0 ? "ON UPPER BOUND" : "") << "\n";
   }
-  os << "(rel.sd: approximate relative standard deviation from the Jacobian at the optimum and the final misfit)\n\n";
+  os << "(rel.sd: approximate relative standard deviation from the Jacobian at the optimum and the final misfit)\n";
+  for (std::size_t j = 0; j < job.free.size(); ++j)
+    if (!r.identifiability.undefined[j].empty())
+      os << "rel.sd of " << job.free[j].key << " undefined: " << r.identifiability.undefined[j] << "\n";
+  os << "\n";
 
   os << std::left << std::setw(52) << "curve" << std::right << std::setw(6) << "n" << std::setw(13) << "RMSE start"
      << std::setw(13) << "RMSE" << std::setw(10) << "R2 start" << std::setw(10) << "R2" << "\n";
@@ -119,8 +132,9 @@ std::string format_report(const Objective& obj, const FitResult& r) {
     const auto& a = r.at_start.curves[c];
     const auto& b = r.at_best.curves[c];
     os << std::left << std::setw(52) << (cv.label() + " ~ " + cv.model_output) << std::right << std::setw(6)
-       << cv.x.size() << std::setw(13) << num(a.rmse, 4) << std::setw(13) << num(b.rmse, 4) << std::setw(10)
-       << num(a.r2, 4) << std::setw(10) << num(b.r2, 4) << (b.failure.empty() ? "" : "  model failed: " + b.failure)
+       << cv.x.size() << std::setw(13) << shown(a.rmse, 4) << std::setw(13) << shown(b.rmse, 4) << std::setw(10)
+       << shown(a.r2, 4) << std::setw(10) << shown(b.r2, 4) << (b.failure.empty() ? "" : "  model failed: " + b.failure)
+       << (std::isfinite(b.rmse) && !std::isfinite(b.r2) ? "  R2 undefined: the data of this curve are constant" : "")
        << "\n";
   }
 
@@ -132,7 +146,7 @@ std::string format_report(const Objective& obj, const FitResult& r) {
   os << "\n";
   for (std::size_t c = 0; c < obj.curves().size(); ++c) {
     os << std::left << std::setw(52) << obj.curve(c).label() << std::right;
-    for (std::size_t j = 0; j < job.free.size(); ++j) os << std::setw(14) << num(id.sensitivity(c, j), 3);
+    for (std::size_t j = 0; j < job.free.size(); ++j) os << std::setw(14) << shown(id.sensitivity(c, j), 3);
     os << "\n";
   }
   os << "correlation matrix:\n" << std::left << std::setw(24) << "" << std::right;
@@ -140,12 +154,16 @@ std::string format_report(const Objective& obj, const FitResult& r) {
   os << "\n";
   for (std::size_t j = 0; j < job.free.size(); ++j) {
     os << std::left << std::setw(24) << job.free[j].key << std::right;
-    for (std::size_t k = 0; k < job.free.size(); ++k) os << std::setw(14) << num(id.correlation(j, k), 3);
+    for (std::size_t k = 0; k < job.free.size(); ++k) os << std::setw(14) << shown(id.correlation(j, k), 3);
     os << "\n";
   }
+  std::string undefined;
+  for (std::size_t j = 0; j < job.free.size(); ++j)
+    if (!std::isfinite(id.correlation(j, j))) undefined += (undefined.empty() ? "" : ", ") + job.free[j].key;
+  if (!undefined.empty()) os << "correlations undefined (-) for " << undefined << ": see rel.sd above\n";
   if (id.singular) os << "WARNING: the Jacobian is rank-deficient: some combination of parameters does not change any curve\n";
   if (id.correlated.empty()) {
-    os << "no parameter pair with |correlation| > 0.95\n";
+    os << "no parameter pair with |correlation| > 0.95" << (undefined.empty() ? "" : " among the defined ones") << "\n";
   } else {
     for (const auto& [j, k] : id.correlated)
       os << "WARNING: |correlation(" << job.free[j].key << ", " << job.free[k].key << ")| = "
@@ -154,14 +172,11 @@ std::string format_report(const Objective& obj, const FitResult& r) {
   return os.str();
 }
 
-void write_outputs(const Objective& obj, const FitResult& r, const std::string& dir, bool force, bool plot) {
+namespace {
+
+void write_staged(const Objective& obj, const FitResult& r, io::StagedFolder& folder, bool plot) {
   const CalibrationJob& job = obj.job();
-  const fs::path target(dir);
-  if (fs::exists(target) && !force)
-    throw io::InputError(io::where(dir) + "output directory exists; pass --force to replace it");
-  const fs::path tmp = target.parent_path() / (target.filename().string() + ".tmp-" + std::to_string(getpid()));
-  fs::remove_all(tmp);
-  fs::create_directories(tmp);
+  const fs::path tmp = folder.staging();
 
   write_file(tmp / (job.output_name + ".toml"), fitted_toml(job, r));
   write_file(tmp / "report.txt", format_report(obj, r));
@@ -170,9 +185,9 @@ void write_outputs(const Objective& obj, const FitResult& r, const std::string& 
   pc << std::setprecision(12) << "key,start,fitted,lower,upper,log,on_bound,rel_sd\n";
   for (std::size_t j = 0; j < job.free.size(); ++j) {
     const FreeParameter& p = job.free[j];
-    pc << p.key << "," << r.start[j] << "," << r.theta[j] << "," << p.lower << "," << p.upper << "," << (p.log ? 1 : 0)
-       << "," << (r.on_bound[j] < 0 ? "lower" : r.on_bound[j] > 0 ? "upper" : "") << "," << r.identifiability.rel_sd[j]
-       << "\n";
+    pc << p.key << "," << Cell{r.start[j]} << "," << Cell{r.theta[j]} << "," << Cell{p.lower} << "," << Cell{p.upper}
+       << "," << (p.log ? 1 : 0) << "," << (r.on_bound[j] < 0 ? "lower" : r.on_bound[j] > 0 ? "upper" : "") << ","
+       << Cell{r.identifiability.rel_sd[j]} << "\n";
   }
   write_file(tmp / "report_parameters.csv", pc.str());
 
@@ -188,15 +203,15 @@ void write_outputs(const Objective& obj, const FitResult& r, const std::string& 
     const auto& a = r.at_start.curves[c];
     const auto& b = r.at_best.curves[c];
     cc << csv_quote(cv.experiment) << "," << cv.data_column << "," << cv.model_output << "," << cv.x.size() << ","
-       << cv.weight << "," << a.rmse << "," << a.r2 << "," << b.rmse << "," << b.r2 << "," << a.misfit << "," << b.misfit
-       << "\n";
+       << Cell{cv.weight} << "," << Cell{a.rmse} << "," << Cell{a.r2} << "," << Cell{b.rmse} << "," << Cell{b.r2} << ","
+       << Cell{a.misfit} << "," << Cell{b.misfit} << "\n";
     sc << csv_quote(cv.label());
-    for (std::size_t j = 0; j < job.free.size(); ++j) sc << "," << r.identifiability.sensitivity(c, j);
+    for (std::size_t j = 0; j < job.free.size(); ++j) sc << "," << Cell{r.identifiability.sensitivity(c, j)};
     sc << "\n";
     const std::string& q = job.experiments[obj.curves()[c].experiment]->abscissa_quantity;
     for (std::size_t i = 0; i < cv.x.size(); ++i)
       xc << csv_quote(cv.experiment) << "," << cv.data_column << "," << cv.model_output << "," << cv.abscissa << "," << q
-         << "," << cv.x[i] << "," << cv.y[i] << "," << a.model[i] << "," << b.model[i] << "\n";
+         << "," << Cell{cv.x[i]} << "," << Cell{cv.y[i]} << "," << Cell{a.model[i]} << "," << Cell{b.model[i]} << "\n";
   }
   write_file(tmp / "report_curves.csv", cc.str());
   write_file(tmp / "sensitivity.csv", sc.str());
@@ -208,7 +223,7 @@ void write_outputs(const Objective& obj, const FitResult& r, const std::string& 
   kc << "\n";
   for (std::size_t j = 0; j < job.free.size(); ++j) {
     kc << job.free[j].key;
-    for (std::size_t k = 0; k < job.free.size(); ++k) kc << "," << r.identifiability.correlation(j, k);
+    for (std::size_t k = 0; k < job.free.size(); ++k) kc << "," << Cell{r.identifiability.correlation(j, k)};
     kc << "\n";
   }
   write_file(tmp / "correlation.csv", kc.str());
@@ -225,12 +240,29 @@ void write_outputs(const Objective& obj, const FitResult& r, const std::string& 
         if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '_' && ch != '-' && ch != '.') ch = ' ';
       const std::string cmd = py + " '" + script + "' '" + (tmp / "curves.csv").string() + "' '" +
                               (tmp / "fit.png").string() + "' '" + title + "'";
-      if (std::system(cmd.c_str()) != 0) std::cerr << "calibrate: the plot script failed; curves.csv holds the curves\n";
+      if (std::system(cmd.c_str()) != 0) {
+        std::error_code ec;
+        fs::remove(tmp / "fit.png", ec);  // whatever it left is not a finished plot
+        std::cerr << "calibrate: the plot script failed; curves.csv holds the curves\n";
+      }
     }
   }
+  folder.commit(r.stop_reason.empty() ? "complete" : "complete (stopped by: " + r.stop_reason + ")");
+}
 
-  if (fs::exists(target)) fs::remove_all(target);
-  fs::rename(tmp, target);
+}  // namespace
+
+void write_outputs(const Objective& obj, const FitResult& r, io::StagedFolder& folder, bool plot) {
+  try {
+    write_staged(obj, r, folder, plot);
+  } catch (const io::OutputError& e) {
+    throw folder.explain(e);
+  }
+}
+
+void write_outputs(const Objective& obj, const FitResult& r, const std::string& dir, bool force, bool plot) {
+  io::StagedFolder folder(dir, force);
+  write_outputs(obj, r, folder, plot);
 }
 
 }  // namespace granflow::calibration

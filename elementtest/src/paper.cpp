@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <sstream>
 #include <stdexcept>
@@ -14,6 +13,7 @@
 #include <granflow/constitutive.hpp>
 
 #include <granflow/io/csv_table.hpp>
+#include <granflow/io/output.hpp>
 
 namespace granflow::elementtest::paper {
 
@@ -100,8 +100,8 @@ std::string fmt(double v) {
 // Long-format CSV: a leading label column, then the result columns.
 void write_long(const std::string& path, const std::string& label,
                 const std::vector<std::pair<double, ResultTable>>& runs) {
-  std::ofstream os(path + ".tmp");
-  if (!os) throw io::InputError(io::where(path) + "cannot write");
+  io::AtomicFile file(path);
+  std::ostream& os = file.stream();
   os << std::setprecision(9);
   os << label;
   for (const auto& n : result_column_names()) os << "," << n;
@@ -112,8 +112,7 @@ void write_long(const std::string& path, const std::string& label,
       for (const auto& c : r.columns) os << "," << c[i] + 0.0;
       os << "\n";
     }
-  os.close();
-  std::filesystem::rename(path + ".tmp", path);
+  file.commit();
 }
 
 }  // namespace
@@ -176,7 +175,7 @@ std::vector<DemComparison> dem_comparison(const std::string& csv_path, const io:
 
 std::vector<std::string> write_figures(const std::string& dir, std::ostream& log) {
   namespace fs = std::filesystem;
-  fs::create_directories(dir);
+  io::make_folder(dir);
   std::vector<std::string> files;
   const io::ParameterSet fric = io::load_parameter_set("frictional_element");
   const io::ParameterSet coll = io::load_parameter_set("collisional_element");
@@ -217,15 +216,18 @@ std::vector<std::string> write_figures(const std::string& dir, std::ostream& log
   const std::vector<DemComparison> cmp = dem_comparison(dem, coll);
   {
     const std::string path = (fs::path(dir) / "dem_comparison.csv").string();
-    std::ofstream os(path);
+    io::AtomicFile file(path);
+    std::ostream& os = file.stream();
     os << std::setprecision(8) << "mu_p,eps_n,nu,p_dem,p_model,s_dem,s_model,T_dem,T_model\n";
     for (const auto& c : cmp)
       for (std::size_t i = 0; i < c.nu.size(); ++i)
         os << c.mu_p << "," << c.eps_n << "," << c.nu[i] << "," << c.p_dem[i] << "," << c.p_model[i] << ","
            << c.s_dem[i] << "," << c.s_model[i] << "," << c.T_dem[i] << "," << c.T_model[i] << "\n";
+    file.commit();
     files.push_back(path);
     const std::string epath = (fs::path(dir) / "dem_errors.csv").string();
-    std::ofstream es(epath);
+    io::AtomicFile efile(epath);
+    std::ostream& es = efile.stream();
     es << "mu_p,eps_n,alpha_effective,points,rms_log_p,rms_log_s,rms_log_T\n";
     log << "  DEM comparison (RMS of ln(model/DEM) over solid fractions below V_sd - vs_gap = "
         << coll.collisional->V_sd - coll.collisional->vs_gap << "):\n";
@@ -238,6 +240,7 @@ std::vector<std::string> write_figures(const std::string& dir, std::ostream& log
       log << "    mu_p = " << c.mu_p << ", e_n = " << c.eps_n << ": p " << fmt(c.rms_log_p) << ", s "
           << fmt(c.rms_log_s) << ", T " << fmt(c.rms_log_T) << " (" << c.points_used << " points)\n";
     }
+    efile.commit();
     files.push_back(epath);
   }
   return files;
@@ -263,7 +266,7 @@ double curve_error(const ResultTable& r, const ResultTable& ref) {
 
 void bench_element(const std::string& dir, bool quick, std::ostream& log) {
   namespace fs = std::filesystem;
-  fs::create_directories(dir);
+  io::make_folder(dir);
   struct Case {
     std::string name;
     ElementTest test;
@@ -272,7 +275,8 @@ void bench_element(const std::string& dir, bool quick, std::ostream& log) {
   std::vector<Case> cases = {{"fig4_e0.80", fig4_test(0.80), io::load_parameter_set("frictional_element")},
                              {"fig6_e0.99", fig6_test(0.99), io::load_parameter_set("element_test")}};
   const std::string path = (fs::path(dir) / "bench_element.csv").string();
-  std::ofstream os(path + ".tmp");
+  io::AtomicFile file(path);
+  std::ostream& os = file.stream();
   os << std::setprecision(6) << "case,solver,setting,error,cpu_s,rhs_evals,steps\n";
   const long max_steps = quick ? 200000 : 4000000;
   for (Case& c : cases) {
@@ -325,8 +329,7 @@ void bench_element(const std::string& dir, bool quick, std::ostream& log) {
           << 1e3 * r.stats.cpu_seconds << "  " << r.stats.rhs_evals << "\n";
     }
   }
-  os.close();
-  fs::rename(path + ".tmp", path);
+  file.commit();
   log << "wrote " << path << "\n";
 }
 

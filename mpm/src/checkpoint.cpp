@@ -2,15 +2,14 @@
 // FNV-1a of everything before it. Host byte order; a file of the other order is refused.
 #include <granflow/mpm/checkpoint.hpp>
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <type_traits>
+
+#include <granflow/io/output.hpp>
 
 namespace granflow::mpm {
 namespace {
@@ -273,31 +272,13 @@ Checkpoint decode_checkpoint(std::string_view b) {
 }
 
 void write_checkpoint(const std::string& path, const Checkpoint& c) {
-  const std::string bytes = encode_checkpoint(c);
-  const std::string tmp = path + ".tmp";
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  if (fd < 0) throw std::runtime_error("cannot write " + tmp + ": " + std::strerror(errno));
-  size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t k = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (k < 0 && errno == EINTR) continue;
-    if (k <= 0) {
-      const std::string why = std::strerror(errno);
-      ::close(fd);
-      ::unlink(tmp.c_str());
-      throw std::runtime_error("cannot write " + tmp + ": " + why + " (disk full?)");
-    }
-    done += static_cast<size_t>(k);
-  }
-  // on disk before the rename, so the name never points at a partly written file
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
-    const std::string why = std::strerror(errno);
-    ::unlink(tmp.c_str());
-    throw std::runtime_error("cannot write " + tmp + ": " + why);
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw std::runtime_error("cannot rename " + tmp + " to " + path + ": " + ec.message());
+  io::write_file(path, encode_checkpoint(c), io::Durability::Sync);
+}
+
+std::vector<std::string> checkpoint_outputs(const Checkpoint& c) {
+  std::vector<std::string> names = {kCheckpointFile, "frames.pvd", "runout.csv", "tracked.csv"};
+  for (const auto& [t, file] : c.loop.pvd) names.push_back(file);
+  return names;
 }
 
 Checkpoint read_checkpoint(const std::string& path) {

@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 
+#include <granflow/io/output.hpp>
 #include <granflow/mpm/checkpoint.hpp>
 #include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/kernels.hpp>
@@ -177,14 +178,9 @@ ConsolidationCheck check_consolidation(const Frame& fr, const SceneSetup& su) {
   return c;
 }
 
+// Series and profiles: synced with the checkpoint or the manifest, like the frames.
 void write_text(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream os(tmp);
-    os << text;
-    if (!os) throw std::runtime_error("cannot write " + tmp);
-  }
-  std::filesystem::rename(tmp, path);
+  io::write_file(path, text, io::Durability::Buffered);
 }
 
 }  // namespace
@@ -225,13 +221,20 @@ void write_series_csv(const std::string& dir, const Scene& sc, const RunSummary&
 
 }  // namespace
 
-RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
+// Where the loop is, for the message of a write that fails.
+struct LoopPosition {
+  double t = 0;
+  long step = 0;
+  double checkpoint_t = -1;  // time of the checkpoint on disk (< 0: none)
+};
+
+RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt, LoopPosition& at) {
   using Clock = std::chrono::steady_clock;
   const Scene& sc = su.scene;
   RunSummary sum;
   sum.device = runner.device();
   const bool files = !opt.out_dir.empty();
-  if (files) std::filesystem::create_directories(opt.out_dir);
+  if (files) io::make_folder(opt.out_dir);
   const std::string ckpt_path = files ? opt.out_dir + "/" + kCheckpointFile : "";
   std::vector<std::pair<double, std::string>> pvd;
   int frame_no = 0;
@@ -324,6 +327,12 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
     sum.final = sum.series.back().m;
     runner.frame(fr, false, su.tracked);  // the current state; a sample at t would have given it
     resumed = true;
+    if (files) {  // the index and the series as they were at the checkpoint
+      write_pvd(opt.out_dir + "/frames.pvd", pvd);
+      write_series_csv(opt.out_dir, sc, sum);
+      sum.checkpoint = ckpt_path;
+      at.checkpoint_t = t;
+    }
   } else {
     sample(0.0, 0);
     write_frame(full_frame(), 0.0, "");
@@ -338,6 +347,7 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
     return ck_dt > 0 ? (std::floor(x / ck_dt + 1e-9) + 1) * ck_dt : std::numeric_limits<double>::infinity();
   };
   double next_ckpt = next_checkpoint_after(t);
+  std::size_t synced_frames = opt.resume ? pvd.size() : 0;  // a restart's earlier frames were synced
   auto save = [&] {
     settle();
     Checkpoint c;
@@ -361,8 +371,11 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
     ls.consolidation = sum.consolidation;
     ls.stats = stats_before + runner.update_stats();
     ls.wall_s = wall_before + elapsed();
+    // the frames it lists on disk before it (the series and index are rewritten on restart)
+    for (; synced_frames < pvd.size(); ++synced_frames) io::sync_path(opt.out_dir + "/" + pvd[synced_frames].second);
     write_checkpoint(ckpt_path, c);
     sum.checkpoint = ckpt_path;
+    at.checkpoint_t = t;
     write_series_csv(opt.out_dir, sc, sum);  // readable series up to the checkpoint
   };
 
@@ -393,6 +406,8 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
       span.max_steps = span_length(span, std::max(1L, opt.max_span));
       const SpanResult r = runner.advance_span(span);
       step += r.steps;
+      at.step = step;
+      at.t = r.t;
       if (!r.ok) {
         settle();
         Frame bad;
@@ -476,6 +491,22 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
     }
   }
   return sum;
+}
+
+RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt) {
+  LoopPosition at;
+  try {
+    return run_loop(su, runner, opt, at);
+  } catch (const io::OutputError& e) {
+    std::ostringstream os;
+    os << e.what() << "; the run stopped at t = " << at.t << " s (step " << at.step << ")";
+    if (at.checkpoint_t >= 0)
+      os << "; its checkpoint of t = " << at.checkpoint_t << " s (" << opt.out_dir << "/" << kCheckpointFile
+         << ") is intact";
+    else
+      os << "; no checkpoint had been written";
+    throw io::OutputError(os.str(), e.os_error());
+  }
 }
 
 BenchResult bench(const SceneSetup& su, Runner& r, const BenchOptions& o) {

@@ -1,11 +1,9 @@
 // VTK XML UnstructuredGrid of vertices (one per material point) and the PVD index.
 #include <cstdint>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
-#include <stdexcept>
+#include <ostream>
 
+#include <granflow/io/output.hpp>
 #include <granflow/mpm/driver.hpp>
 
 namespace granflow::mpm {
@@ -59,19 +57,12 @@ std::vector<double> interleave3(const std::vector<double>& a, long n, int dim) {
   return o;
 }
 
-void commit(const std::string& tmp, const std::string& path) {
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw std::runtime_error("cannot rename " + tmp + " to " + path + ": " + ec.message());
-}
-
 }  // namespace
 
 void write_vtu(const std::string& path, const Frame& fr, bool binary) {
-  const std::string tmp = path + ".tmp";
+  io::AtomicFile file(path, io::Durability::Buffered);  // synced with the checkpoint or the manifest
   {
-    std::ofstream os(tmp);
-    if (!os) throw std::runtime_error("cannot write " + tmp);
+    std::ostream& os = file.stream();
     const long n = fr.n;
     os << "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\""
        << (little_endian() ? "LittleEndian" : "BigEndian") << "\" header_type=\"UInt32\">\n"
@@ -97,23 +88,21 @@ void write_vtu(const std::string& path, const Frame& fr, bool binary) {
     for (const auto& [name, v] : fields)
       if (v->size() == static_cast<size_t>(n)) data_array(os, "Float64", name, 1, *v, binary);
     os << "      </PointData>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n";
-    if (!os) throw std::runtime_error("write failed: " + tmp);
   }
-  commit(tmp, path);
+  file.commit();
 }
 
 void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& frames) {
-  const std::string tmp = path + ".tmp";
+  io::AtomicFile file(path, io::Durability::Buffered);
   {
-    std::ofstream os(tmp);
-    if (!os) throw std::runtime_error("cannot write " + tmp);
+    std::ostream& os = file.stream();
     os << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n";
     os.precision(10);
     for (const auto& [t, f] : frames)
       os << "    <DataSet timestep=\"" << t << "\" group=\"\" part=\"0\" file=\"" << f << "\"/>\n";
     os << "  </Collection>\n</VTKFile>\n";
   }
-  commit(tmp, path);
+  file.commit();
 }
 
 }  // namespace granflow::mpm

@@ -4,14 +4,17 @@
 
 #include <unistd.h>
 
+#include <cerrno>
 #include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <random>
 #include <sstream>
 
+#include <granflow/io/output.hpp>
 #include <granflow/mpm/checkpoint.hpp>
 #include <granflow/mpm/driver.hpp>
 
@@ -233,12 +236,25 @@ TEST(MpmCheckpoint, EveryTruncationAndEveryFlippedByteIsRefused) {
 TEST(MpmCheckpoint, WriteReplacesAtomicallyAndLeavesNoTemporary) {
   const fs::path dir = scratch("write");
   const std::string path = (dir / kCheckpointFile).string();
-  std::ofstream(path + ".tmp") << "left by a killed writer";
   Checkpoint c = sample_checkpoint(4, 2);
   write_checkpoint(path, c);
   c.loop.step = 99;
   write_checkpoint(path, c);
-  EXPECT_FALSE(fs::exists(path + ".tmp"));
+  EXPECT_EQ(read_checkpoint(path).loop.step, 99);
+  EXPECT_EQ(files_in(dir).size(), 1u);
+  // a disk that fills up half way through the next one: the previous checkpoint stays
+  const std::size_t half = encode_checkpoint(c).size() / 2;
+  auto used = std::make_shared<std::size_t>(0);
+  io::set_write_fault([=](const std::string&, io::WriteStep step, std::size_t& bytes) {
+    if (step != io::WriteStep::Write) return 0;
+    if (*used >= half) return ENOSPC;
+    bytes = std::min(bytes, half - *used);
+    *used += bytes;
+    return 0;
+  });
+  c.loop.step = 100;
+  EXPECT_THROW(write_checkpoint(path, c), io::OutputError);
+  io::set_write_fault({});
   EXPECT_EQ(read_checkpoint(path).loop.step, 99);
   EXPECT_EQ(files_in(dir).size(), 1u);
 }

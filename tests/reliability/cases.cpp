@@ -124,6 +124,8 @@ std::vector<std::string> mpm_with(std::vector<std::string> extra) {
   a.insert(a.end(), extra.begin(), extra.end());
   return a;
 }
+const std::vector<std::string> kCalForce = {"calibrate", "job.toml", "--out", "fit", "--no-plot", "--quiet", "--force"};
+const std::vector<std::string> kMpmForce = {"mpm", "scene.toml", "--out", "o", "--no-png", "--quiet", "--force"};
 
 // A valid checkpoint, but of another scene (its hash is not kScene's).
 std::string foreign_checkpoint() {
@@ -280,6 +282,8 @@ std::vector<Case> all_cases() {
       {"calib_data_missing_column", {{"job.toml", J("s = \"tau\"", "shear = \"tau\"")}}, kCal, kInput, {"dem.csv", "needs column 'shear'", "header 'nu,p,s,T,e_r'"}},
       {"calib_job_missing", {}, {"calibrate", "nojob.toml", "--no-plot", "--quiet"}, kInput, {"nojob.toml", "cannot open file"}},
       {"calib_out_exists", {{"fit/old.txt", "previous fit\n"}}, kCal, kInput, {"fit", "output directory exists", "--force"}},
+      {"calib_force_foreign_folder", {{"fit/old.txt", "not granflow's\n"}}, kCalForce, kInput, {"fit: not a granflow run folder (it has no granflow.manifest)", "--force replaces only folders granflow wrote"}},
+      {"calib_out_is_a_file", {{"fit", "a file\n"}}, kCalForce, kInput, {"fit: is a file, not a folder"}},
 
       // ---- MPM scene (granflow mpm) ----------------------------------------------------------
       {"mpm_material_outside_grid", {{"scene.toml", S("max = [0.1, 0.06]", "max = [0.1, 0.5]")}}, kMpm, kInput, {"scene.toml:15", "'body[0].max'", "lies outside the grid [0, 0.1]", "grid.size"}},
@@ -298,6 +302,10 @@ std::vector<Case> all_cases() {
       {"mpm_checkpoint_dt_negative", {{"scene.toml", kScene + "checkpoint_dt = -1\n"}}, kMpm, kInput, {"scene.toml:22", "'output.checkpoint_dt'", "must be > 0"}},
       {"mpm_checkpoint_every_zero", {}, {"mpm", "scene.toml", "--out", "o", "--checkpoint-every", "0"}, 105, {"--checkpoint-every", "must be a number of seconds > 0, got '0'", "command line: mpm scene.toml"}},
       {"mpm_out_not_empty", {{"o/old.vtu", "previous run\n"}}, kMpm, kInput, {"output directory 'o' exists and is not empty", "--force"}},
+      {"mpm_force_foreign_folder", {{"o/notes.txt", "not granflow's\n"}}, kMpmForce, kInput, {"output directory 'o' is not a granflow run folder", "--force replaces only folders granflow wrote"}},
+      {"mpm_out_is_a_file", {{"o", "a file\n"}}, kMpm, kInput, {"o: is a file, not a folder"}},
+      {"mpm_force_out_is_a_file", {{"o", "a file\n"}}, kMpmForce, kInput, {"o: is a file, not a folder"}},
+      {"mpm_locked_on_another_host", {{"o/granflow.lock", "granflow lock\npid 1\nhost elsewhere.example\n"}, {"o/frame_0000.vtu", "x"}}, kMpmForce, kInput, {"output folder 'o' is locked by pid 1 on host elsewhere.example", "remove that file"}},
       {"mpm_restart_without_checkpoint", {{"o/frame_0000.vtu", "previous run\n"}}, kRestart, kInput, {"o/checkpoint.bin", "no checkpoint to restart from", "--checkpoint-every"}},
       {"mpm_restart_without_output", {}, kRestart, kInput, {"--restart", "'o' does not exist", "nothing to continue"}},
       {"mpm_restart_with_force", {{"o/checkpoint.bin", foreign_checkpoint()}}, {"mpm", "scene.toml", "--out", "o", "--restart", "--force"}, kInput, {"--restart", "--force", "give one of them"}},

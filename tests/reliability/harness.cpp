@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -64,8 +65,9 @@ std::string slurp(const std::string& path) {
   return os.str();
 }
 
-int start_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args) {
-  const std::string out_path = dir + "/../" + "stdout.txt", err_path = dir + "/../" + "stderr.txt";
+int start_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args,
+             const ChildSetup& setup) {
+  const std::string out_path = dir + "/../stdout" + setup.tag + ".txt", err_path = dir + "/../stderr" + setup.tag + ".txt";
   const pid_t pid = ::fork();
   if (pid == 0) {
     if (::chdir(dir.c_str()) != 0) ::_exit(126);
@@ -77,6 +79,12 @@ int start_in(const std::string& dir, const std::string& program, const std::vect
     ::dup2(fo, 1);
     ::dup2(fe, 2);
     ::setenv("GRANFLOW_DATA_DIR", GRANFLOW_SOURCE_DIR "/data", 1);
+    for (const auto& [k, v] : setup.env) ::setenv(k.c_str(), v.c_str(), 1);
+    if (setup.file_size_limit >= 0) {
+      ::signal(SIGXFSZ, SIG_IGN);  // write() then fails with EFBIG instead of killing the process
+      const rlimit r{static_cast<rlim_t>(setup.file_size_limit), static_cast<rlim_t>(setup.file_size_limit)};
+      if (::setrlimit(RLIMIT_FSIZE, &r) != 0) ::_exit(125);
+    }
     std::vector<char*> av;
     av.push_back(const_cast<char*>(program.c_str()));
     for (const auto& a : args) av.push_back(const_cast<char*>(a.c_str()));
@@ -87,9 +95,9 @@ int start_in(const std::string& dir, const std::string& program, const std::vect
   return pid;
 }
 
-Outcome finish(int pid, const std::string& dir, double timeout_s) {
+Outcome finish(int pid, const std::string& dir, double timeout_s, const std::string& tag) {
   Outcome o;
-  const std::string out_path = dir + "/../" + "stdout.txt", err_path = dir + "/../" + "stderr.txt";
+  const std::string out_path = dir + "/../stdout" + tag + ".txt", err_path = dir + "/../stderr" + tag + ".txt";
   const auto t0 = std::chrono::steady_clock::now();
   int status = 0;
   for (;;) {
@@ -115,8 +123,22 @@ Outcome finish(int pid, const std::string& dir, double timeout_s) {
 }
 
 Outcome run_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args,
-               double timeout_s) {
-  return finish(start_in(dir, program, args), dir, timeout_s);
+               double timeout_s, const ChildSetup& setup) {
+  return finish(start_in(dir, program, args, setup), dir, timeout_s, setup.tag);
+}
+
+std::string small_column_scene() {
+  std::string s = slurp(std::string(GRANFLOW_SOURCE_DIR) + "/mpm/scenes/column_collapse_ci.toml");
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"size = [0.60, 0.15]", "size = [0.60, 0.16]"},
+           {"h = 0.01", "h = 0.02"},
+           {"dt = 5e-5", "dt = 2e-4"},
+           {"duration = 0.1\n", "duration = 0.04\n"},
+           {"duration = 0.4\n", "duration = 0.36\n"},
+           {"times = [0.05, 0.25, 0.4]", "times = [0.05, 0.25, 0.36]\ncheckpoint_dt = 0.02"},
+           {"series_dt = 5e-3", "series_dt = 0.004"}})
+    s = edit(s, from, to);
+  return s;
 }
 
 }  // namespace reliability

@@ -36,13 +36,22 @@ struct Outcome {
   std::string out, err;
 };
 
+// What the child gets besides GRANFLOW_DATA_DIR: environment variables (e.g. GRANFLOW_FAULT_*,
+// see granflow/io/output.hpp) and a file-size limit (RLIMIT_FSIZE, with SIGXFSZ ignored).
+struct ChildSetup {
+  std::vector<std::pair<std::string, std::string>> env;
+  long file_size_limit = -1;  // bytes; < 0: none
+  std::string tag = "";       // stdout/stderr go to dir/../stdout<tag>.txt (runs at the same time)
+};
+
 // Runs program with args in folder dir (cwd), with GRANFLOW_DATA_DIR set to the source data;
 // stdout and stderr go to dir/../stdout.txt and stderr.txt.
 Outcome run_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args,
-               double timeout_s = 120.0);
+               double timeout_s = 120.0, const ChildSetup& setup = {});
 // The same in two halves: start it (returns the pid), then wait for it (SIGKILL after timeout_s).
-int start_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args);
-Outcome finish(int pid, const std::string& dir, double timeout_s = 120.0);
+int start_in(const std::string& dir, const std::string& program, const std::vector<std::string>& args,
+             const ChildSetup& setup = {});
+Outcome finish(int pid, const std::string& dir, double timeout_s = 120.0, const std::string& tag = "");
 
 // Returns base with the first occurrence of `from` replaced by `to`; a marker that fails the
 // case when `from` is not in base (so a stale edit cannot silently test the good file).
@@ -54,5 +63,10 @@ std::string scratch_root(const std::string& prefix);
 std::string drop_line(const std::string& base, const std::string& line_start);
 // The whole file as bytes (empty when it cannot be read).
 std::string slurp(const std::string& path);
+
+// The CI column (mpm/scenes/column_collapse_ci.toml) on a 20 mm grid: 0.04 s consolidation +
+// 0.36 s collapse (2000 steps, about half a second), a checkpoint every 0.02 s, frames at 0.05,
+// 0.25 and 0.36 s. Holds "<edit target not found>" when the shipped scene changed.
+std::string small_column_scene();
 
 }  // namespace reliability

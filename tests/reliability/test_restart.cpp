@@ -25,29 +25,13 @@ namespace fs = std::filesystem;
 namespace {
 
 
-// The CI column (mpm/scenes/column_collapse_ci.toml) on a 20 mm grid, 0.04 s consolidation +
-// 0.36 s collapse (2000 steps, about half a second), a checkpoint every 0.02 s.
-std::string test_scene() {
-  std::string s = slurp(fs::path(GRANFLOW_SOURCE_DIR) / "mpm/scenes/column_collapse_ci.toml");
-  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
-           {"size = [0.60, 0.15]", "size = [0.60, 0.16]"},
-           {"h = 0.01", "h = 0.02"},
-           {"dt = 5e-5", "dt = 2e-4"},
-           {"duration = 0.1\n", "duration = 0.04\n"},
-           {"duration = 0.4\n", "duration = 0.36\n"},
-           {"times = [0.05, 0.25, 0.4]", "times = [0.05, 0.25, 0.36]\ncheckpoint_dt = 0.02"},
-           {"series_dt = 5e-3", "series_dt = 0.004"}})
-    s = edit(s, from, to);
-  return s;
-}
-
 struct Work {
   fs::path dir;
   explicit Work(const std::string& name) {
     dir = fs::path(scratch_root("granflow_restart")) / name / "work";
     fs::remove_all(dir.parent_path());
     fs::create_directories(dir);
-    const std::string scene = test_scene();
+    const std::string scene = small_column_scene();
     EXPECT_EQ(scene.find("<edit target not found>"), std::string::npos) << "the CI scene changed: " << scene;
     write("scene.toml", scene);
     ::setenv("OMP_NUM_THREADS", "1", 1);  // small scene: one thread is fastest

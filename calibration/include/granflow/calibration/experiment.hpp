@@ -95,11 +95,12 @@ std::vector<std::shared_ptr<const Experiment>> make_element_experiments(const st
                                                                         io::TomlTable& test_table,
                                                                         const std::string& model_abscissa);
 
-// Synthetic data for an element experiment whose data file does not exist yet: runs the test
-// with `truth`, keeps every `stride`-th output row after the first, multiplies every target by
-// (1 + noise * N(0,1)) from a generator seeded with `seed` and writes sel.file with the abscissa
-// and target columns. Used by the round-trip tests and the benchmark's synthetic curves.
-void synthesize_element_data(const DataSelection& sel, io::TomlTable& test_table, const std::string& model_abscissa,
-                             const io::ParameterSet& truth, double noise, unsigned long seed, long stride);
+// Synthetic data for an element experiment: runs the test with `truth`, keeps every `stride`-th
+// output row after the first, multiplies every target by (1 + noise * N(0,1)) from a generator
+// seeded with `seed` and returns the text of sel.file (the abscissa and target columns). Used by
+// the round-trip tests and the benchmark's synthetic curves.
+std::string synthesize_element_data(const DataSelection& sel, io::TomlTable& test_table,
+                                    const std::string& model_abscissa, const io::ParameterSet& truth, double noise,
+                                    unsigned long seed, long stride);
 
 }  // namespace granflow::calibration

@@ -14,6 +14,8 @@
 
 #include <Eigen/Dense>
 
+#include <granflow/io/run_folder.hpp>
+
 #include "experiment.hpp"
 #include "job.hpp"
 
@@ -90,9 +92,12 @@ class Objective {
 
 struct Identifiability {
   Eigen::MatrixXd sensitivity;  // curves x parameters: RMS change of the normalised curve per unit change of ln(theta)
-  Eigen::MatrixXd correlation;  // parameters x parameters, from (S^T S)^-1 (NaN where singular)
-  std::vector<double> rel_sd;   // approximate relative standard deviation of each parameter
-  std::vector<std::pair<std::size_t, std::size_t>> correlated;  // |correlation| > 0.95
+  Eigen::MatrixXd correlation;  // parameters x parameters, from (S^T S)^-1 (NaN where undefined)
+  std::vector<double> rel_sd;   // approximate relative standard deviation of each parameter (NaN: undefined)
+  // Per parameter: why its rel_sd and correlations are undefined (no curve depends on it here,
+  // it trades off exactly with others, no residual degree of freedom); empty when defined.
+  std::vector<std::string> undefined;
+  std::vector<std::pair<std::size_t, std::size_t>> correlated;  // defined and |correlation| > 0.95
   bool singular = false;
   long evaluations = 0;
 };
@@ -118,8 +123,11 @@ FitResult fit(const Objective& objective, const FitOptions& options);
 Identifiability identifiability(const Objective& objective, const std::vector<double>& theta, double step);
 
 // Writes fitted TOML, report.txt, report_curves.csv, report_parameters.csv, correlation.csv,
-// sensitivity.csv, curves.csv and fit.png into `dir` (via a temporary directory renamed at the end).
-// Throws if `dir` exists and `force` is false.
+// sensitivity.csv, curves.csv and fit.png into the folder's staging folder, then commits it
+// (manifest, swapped in). An undefined number (NaN, inf) is written as an empty cell.
+void write_outputs(const Objective& objective, const FitResult& result, io::StagedFolder& folder, bool plot = true);
+// The same into `dir`, locked and staged here; refuses an existing `dir` unless `force` and it
+// is a granflow run folder.
 void write_outputs(const Objective& objective, const FitResult& result, const std::string& dir,
                    bool force, bool plot = true);
 

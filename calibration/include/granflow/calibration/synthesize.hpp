@@ -12,9 +12,11 @@ struct SynthesisOptions {
   double noise = 0.02;       // relative, Gaussian
   unsigned long seed = 1;    // experiment i uses seed + i
   long stride = 1;           // keep every stride-th output row
+  bool force = false;        // replace data files that exist (otherwise refused, nothing written)
 };
 
-// Writes the data file of every element experiment of the job (steady-shear ones are skipped).
+// Writes the data file of every element experiment of the job (steady-shear ones are skipped):
+// all of them or, on an error, none.
 void synthesize_job_data(const std::string& job_path, const SynthesisOptions& options);
 
 }  // namespace granflow::calibration

@@ -50,9 +50,13 @@ inline constexpr const char* kCheckpointFile = "checkpoint.bin";
 
 std::string encode_checkpoint(const Checkpoint& c);
 Checkpoint decode_checkpoint(std::string_view bytes);
-// Written to path.tmp, flushed to disk and renamed: a kill never leaves a partial checkpoint.
+// Through io::write_file, synced: a kill or a full disk never leaves a partial checkpoint, and
+// a failed write (io::OutputError) leaves the previous one.
 void write_checkpoint(const std::string& path, const Checkpoint& c);
 Checkpoint read_checkpoint(const std::string& path);
+// The files of the output folder when `c` was written: the checkpoint, the frame index, the
+// series and the frames it lists. --restart removes every other (written after it).
+std::vector<std::string> checkpoint_outputs(const Checkpoint& c);
 // Refuses a checkpoint of another scene (hash) or of a set-up it does not fit.
 void check_checkpoint(const Checkpoint& c, const SceneSetup& su, std::uint64_t scene_hash);
 

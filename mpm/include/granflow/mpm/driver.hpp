@@ -90,7 +90,8 @@ BenchResult bench(const SceneSetup& su, Runner& runner, const BenchOptions& opt)
 // The figures as printed by both commands (scene, device, options, times per step).
 std::string bench_report(const SceneSetup& su, const Runner& runner, const BenchOptions& opt, const BenchResult& r);
 
-// Writers (files are written to a temporary name and renamed when complete).
+// Writers, through io::AtomicFile: a file appears under its name only complete; a failure
+// (io::OutputError) leaves the previous file.
 void write_vtu(const std::string& path, const Frame& fr, bool binary);
 void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& frames);
 

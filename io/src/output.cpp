@@ -1,0 +1,281 @@
+#include <granflow/io/output.hpp>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <mutex>
+#include <streambuf>
+#include <vector>
+
+namespace granflow::io {
+
+namespace fs = std::filesystem;
+
+OutputError::OutputError(const std::string& message, int os_error)
+    : std::runtime_error(message), os_error_(os_error) {}
+
+bool OutputError::user_fixable() const {
+  switch (os_error_) {
+    case ENOSPC: case EDQUOT: case EROFS: case EACCES: case EPERM: case EFBIG: case ENOTDIR: case EISDIR:
+    case ENAMETOOLONG: case EEXIST: case ENOENT: case ELOOP: case ENOTEMPTY: case EMLINK:
+      return true;
+    default:
+      return false;
+  }
+}
+
+std::string describe_os_error(const std::string& path, const std::string& action, int os_error) {
+  std::string m = path + ": cannot " + action + ": " + std::strerror(os_error);
+  switch (os_error) {
+    case ENOSPC: return m + " (the file system is full: free space there, or write elsewhere)";
+    case EDQUOT: return m + " (the disk quota is used up)";
+    case EROFS: return m + " (the file system is mounted read-only: write elsewhere)";
+    case EFBIG: return m + " (the file exceeds the size limit, see ulimit -f)";
+    default: return m;
+  }
+}
+
+// ---- fault injection ----------------------------------------------------------------------
+
+namespace {
+
+std::mutex g_fault_mutex;
+WriteFault g_hook;
+
+struct EnvFault {
+  bool active = false;
+  WriteStep at = WriteStep::Write;
+  std::string file;
+  std::size_t budget = 0, used = 0;
+  int err = ENOSPC;
+  bool tripped = false;
+
+  EnvFault() {
+    const char* at_s = std::getenv("GRANFLOW_FAULT_AT");
+    const char* file_s = std::getenv("GRANFLOW_FAULT_FILE");
+    const char* bytes_s = std::getenv("GRANFLOW_FAULT_BYTES");
+    const char* errno_s = std::getenv("GRANFLOW_FAULT_ERRNO");
+    active = at_s || file_s || bytes_s;
+    if (!active) return;
+    if (at_s) {
+      const std::string a = at_s;
+      at = a == "open" ? WriteStep::Open : a == "sync" ? WriteStep::Sync : a == "close" ? WriteStep::Close
+         : a == "rename" ? WriteStep::Rename : WriteStep::Write;
+    }
+    if (file_s) file = file_s;
+    if (bytes_s) budget = std::strtoull(bytes_s, nullptr, 10);
+    if (errno_s) {
+      const std::string e = errno_s;
+      err = e == "EDQUOT" ? EDQUOT : e == "EIO" ? EIO : e == "EROFS" ? EROFS : e == "EACCES" ? EACCES
+          : e == "EFBIG" ? EFBIG : ENOSPC;
+    }
+  }
+
+  int operator()(const std::string& path, WriteStep step, std::size_t& bytes) {
+    if (!active || step != at || path.find(file) == std::string::npos) return 0;
+    if (tripped) return err;
+    if (step != WriteStep::Write) {
+      tripped = true;
+      return err;
+    }
+    const std::size_t left = budget - used;
+    if (bytes <= left) {
+      used += bytes;
+      return 0;
+    }
+    tripped = true;
+    if (left == 0) return err;
+    bytes = left;  // a short write, then the failure
+    used = budget;
+    return 0;
+  }
+};
+
+}  // namespace
+
+WriteFault set_write_fault(WriteFault hook) {
+  std::lock_guard<std::mutex> lk(g_fault_mutex);
+  std::swap(g_hook, hook);
+  return hook;
+}
+
+int write_fault(const std::string& path, WriteStep step, std::size_t& bytes) {
+  std::lock_guard<std::mutex> lk(g_fault_mutex);
+  if (g_hook) return g_hook(path, step, bytes);
+  static EnvFault env;
+  return env(path, step, bytes);
+}
+
+// ---- AtomicFile ---------------------------------------------------------------------------
+
+// Buffers into the temporary's descriptor; the first failed write is kept for commit().
+class AtomicFile::Buffer : public std::streambuf {
+ public:
+  Buffer(int fd, const std::string& path) : fd_(fd), path_(path), buf_(1 << 16) {
+    setp(buf_.data(), buf_.data() + buf_.size());
+  }
+  int error() const { return error_; }
+  bool drain() {
+    const bool ok = write_all(pbase(), static_cast<std::size_t>(pptr() - pbase()));
+    setp(buf_.data(), buf_.data() + buf_.size());
+    return ok;
+  }
+
+ protected:
+  int_type overflow(int_type c) override {
+    if (!drain()) return traits_type::eof();
+    if (!traits_type::eq_int_type(c, traits_type::eof())) {
+      *pptr() = traits_type::to_char_type(c);
+      pbump(1);
+    }
+    return traits_type::not_eof(c);
+  }
+  int sync() override { return drain() ? 0 : -1; }
+
+ private:
+  bool write_all(const char* p, std::size_t n) {
+    if (error_) return false;
+    while (n > 0) {
+      std::size_t want = n;
+      if (const int e = write_fault(path_, WriteStep::Write, want)) {
+        error_ = e;
+        return false;
+      }
+      const ssize_t k = ::write(fd_, p, want);
+      if (k < 0 && errno == EINTR) continue;
+      if (k <= 0) {
+        error_ = k < 0 ? errno : EIO;
+        return false;
+      }
+      p += k;
+      n -= static_cast<std::size_t>(k);
+    }
+    return true;
+  }
+  int fd_;
+  const std::string& path_;
+  std::vector<char> buf_;
+  int error_ = 0;
+};
+
+std::string temporary_name(const std::string& path) { return path + ".tmp-" + std::to_string(::getpid()); }
+
+bool is_temporary_name(const std::string& name) {
+  const auto at = name.rfind(".tmp");
+  if (at == std::string::npos || at == 0) return false;
+  const std::string tail = name.substr(at + 4);
+  if (tail.empty()) return true;
+  if (tail.size() < 2 || tail[0] != '-') return false;
+  return tail.find_first_not_of("0123456789", 1) == std::string::npos;
+}
+
+AtomicFile::AtomicFile(std::string path, Durability durability)
+    : path_(std::move(path)), temporary_(temporary_name(path_)), durability_(durability) {
+  std::size_t none = 0;
+  if (const int e = write_fault(path_, WriteStep::Open, none)) fail("write", e);
+  fd_ = ::open(temporary_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd_ < 0) fail("write", errno);
+  buffer_ = std::make_unique<Buffer>(fd_, path_);
+  stream_ = std::make_unique<std::ostream>(buffer_.get());
+}
+
+AtomicFile::~AtomicFile() {
+  if (!committed_) discard();
+}
+
+std::ostream& AtomicFile::stream() { return *stream_; }
+
+void AtomicFile::discard() noexcept {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+  ::unlink(temporary_.c_str());
+}
+
+void AtomicFile::fail(const std::string& action, int err) {
+  discard();
+  struct stat st {};
+  const bool had = ::stat(path_.c_str(), &st) == 0;
+  throw OutputError(describe_os_error(path_, action, err) +
+                        (had ? "; the file keeps its previous content" : "; nothing was written"),
+                    err);
+}
+
+void AtomicFile::commit() {
+  if (committed_) return;
+  stream_->flush();
+  if (!buffer_->drain() || buffer_->error()) fail("write", buffer_->error() ? buffer_->error() : EIO);
+  std::size_t none = 0;
+  if (durability_ == Durability::Sync) {
+    int e = write_fault(path_, WriteStep::Sync, none);
+    if (!e && ::fsync(fd_) != 0) e = errno;
+    if (e) fail("write", e);
+  }
+  int e = write_fault(path_, WriteStep::Close, none);
+  const int fd = fd_;
+  fd_ = -1;
+  if (::close(fd) != 0 && !e) e = errno;  // NFS and quotas report late errors here
+  if (e) fail("write", e);
+  e = write_fault(path_, WriteStep::Rename, none);
+  if (!e && ::rename(temporary_.c_str(), path_.c_str()) != 0) e = errno;
+  if (e) fail("replace", e);
+  committed_ = true;
+  if (durability_ == Durability::Sync) {
+    // the new name on disk too; best effort: the file is in place whatever this says
+    const fs::path parent = fs::path(path_).parent_path();
+    const int dfd = ::open(parent.empty() ? "." : parent.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (dfd >= 0) {
+      (void)::fsync(dfd);
+      ::close(dfd);
+    }
+  }
+}
+
+void write_file(const std::string& path, std::string_view bytes, Durability durability) {
+  AtomicFile f(path, durability);
+  f.write(bytes);
+  f.commit();
+}
+
+// ---- folders ------------------------------------------------------------------------------
+
+bool make_folder(const std::string& dir) {
+  std::error_code ec;
+  if (fs::is_directory(dir, ec)) return false;
+  // name the component in the way, not the OS's "File exists"
+  fs::path prefix;
+  for (const auto& part : fs::path(dir)) {
+    prefix /= part;
+    const auto st = fs::status(prefix, ec);
+    if (ec) break;
+    if (fs::exists(st) && !fs::is_directory(st))
+      throw OutputError(prefix.string() + ": is a file, not a folder (" + dir + " cannot be created)", ENOTDIR);
+  }
+  const bool made = fs::create_directories(dir, ec);
+  if (ec) throw OutputError(describe_os_error(dir, "create the folder", ec.value()), ec.value());
+  return made;
+}
+
+void sync_path(const std::string& path) {
+  std::size_t none = 0;
+  int e = write_fault(path, WriteStep::Sync, none);
+  if (e) throw OutputError(describe_os_error(path, "write", e), e);
+  struct stat st {};
+  const bool dir = ::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | (dir ? O_DIRECTORY : 0));
+  if (fd < 0) throw OutputError(describe_os_error(path, "open", errno), errno);
+  if (::fsync(fd) != 0 && !(dir && errno == EINVAL)) e = errno;
+  ::close(fd);
+  if (e) throw OutputError(describe_os_error(path, "write", e), e);
+}
+
+void remove_file(const std::string& path) {
+  if (::unlink(path.c_str()) != 0 && errno != ENOENT)
+    throw OutputError(describe_os_error(path, "remove", errno), errno);
+}
+
+}  // namespace granflow::io
