@@ -47,7 +47,17 @@ class CpuRunner final : public Runner {
     sp_.flip = S(flip);
   }
 
+  // The span's steps start from its time (a lifting gate's edge depends on it).
+  SpanResult advance_span(const Span& s) override {
+    t_ = s.t;
+    return Runner::advance_span(s);
+  }
+
+  // One step from the runner's clock: the time the last span started from plus the steps
+  // taken since (Runner::advance_span adds them in the same order).
   StepResult step(double dt, bool want_dt_limit) override {
+    sp_.t = t_;
+    t_ += dt;
     sp_.dt = S(dt);
     sp_.want_dt_limit = want_dt_limit ? 1 : 0;
     const ParticleView<S> pv{part_.data(), n_};
@@ -232,6 +242,7 @@ class CpuRunner final : public Runner {
   StepParams<D, S, Model> sp_;
   long n_;
   int stage_ = 0;
+  double t_ = 0;
   std::vector<S> part_, grid_, dtlim_, trbar_;
   std::vector<long> bin_start_, order_, key_, fill_;
   std::vector<std::uint32_t> status_, info_;

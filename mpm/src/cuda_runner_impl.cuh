@@ -98,6 +98,7 @@ __device__ __forceinline__ StepParams<D, S, Model> with_span(const StepParams<D,
   sp.flip = S(c->flip);
   sp.damping = S(c->damping);
   sp.want_dt_limit = c->adaptive;
+  sp.t = c->t;
   return sp;
 }
 
@@ -567,6 +568,7 @@ class CudaRunner final : public Runner {
   StepResult step(double dt, bool want_dt_limit) override {
     Span s;
     s.max_steps = 1;
+    s.t = t_;
     s.dt = dt;
     s.adaptive = want_dt_limit;
     s.dt_max = std::numeric_limits<double>::infinity();  // next dt = the limit itself
@@ -608,6 +610,7 @@ class CudaRunner final : public Runner {
     times_.device += 1e-3 * ms;
     times_.span_steps += o.steps;
     times_.deferred += static_cast<long>(o.deferred);
+    t_ = o.t;
     SpanResult r;
     r.steps = o.steps;
     r.t = o.t;
@@ -971,6 +974,7 @@ class CudaRunner final : public Runner {
   int key_bits_ = 32;
   int stage_ = 0;
   double damping_ = 0, flip_ = 0;
+  double t_ = 0;  // time after the last span: step() goes on from it
   long since_sort_ = 0;
   cudaStream_t stream_ = nullptr;
   S* part_ = nullptr;              // particle fields (ParticleLayout), slots in sorted order

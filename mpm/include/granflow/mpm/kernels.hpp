@@ -53,6 +53,7 @@ struct StepParams {
   S cfl;              // safety factor of the time-step limit
   int want_dt_limit;  // compute the per-particle stable time step in G2P
   int vol_avg;        // replace tr L by its volume-weighted mean over the particle's bin
+  double t;           // time at the start of the step [s] (the lifting gate's edge)
 };
 
 // ---- 1. P2G ------------------------------------------------------------------------------
