@@ -1,7 +1,8 @@
 // The MPM step, written once for every backend (MODEL.md 9; STYLE.md: one phase, one function).
 //
 //   1. P2G   (p2g_load + p2g_contribution): mass, momentum and force  f = -sum V sigma grad N
-//   2. grid  (grid_update_node): v_old = p/m, v_new = v_old + dt (f/m + g), boundary masks
+//   2. grid  (grid_update_node): v_old = p/m, v_new = v_old + dt (f/m + g), boundary masks,
+//            friction and lifting gates (boundary.hpp)
 //   3. G2P   (g2p_particle): FLIP/PIC velocity, position with the grid velocity, velocity
 //            gradient from v_new, then the constitutive update (Model::update, Jaumann inside).
 //
@@ -16,6 +17,7 @@
 
 #include <granflow/constitutive.hpp>
 
+#include "boundary.hpp"
 #include "layout.hpp"
 #include "shape.hpp"
 
@@ -177,6 +179,9 @@ GF_HDI void grid_update_node(const GridView<S>& gv, long I, const StepParams<D, 
     }
     gv.f(G::VOLD + d, I) = vo;
     gv.f(G::VNEW + d, I) = vn;
+  }
+  if constexpr (kBoundary) {
+    if (mask & kContactNode) contact_node<D, S>(gv, I, sp.grid.nodes, sp.t);
   }
 }
 
