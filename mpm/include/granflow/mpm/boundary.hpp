@@ -114,13 +114,9 @@ GF_HDI void coulomb_contact(S* v, const double* n, double mu) {
 
 // Velocity of a flagged node after the stage's masks: friction of every frictional wall the
 // node lies on or beyond (in scene order), then of the base, then the lifting gate's hold
-// (t: time at the start of the step). Out of line on the device: the common path of the grid
-// kernel keeps its registers.
+// (t: time at the start of the step).
 template <int D, class S>
-#ifdef __CUDACC__
-__host__ __device__ __noinline__
-#endif
-void contact_node(const GridView<S>& gv, long I, const int* nodes, double t) {
+GF_HDI void contact_node(const GridView<S>& gv, long I, const int* nodes, double t) {
   using G = GridLayout<D>;
   const ContactTable& c = contact_table(gv);
   double x[3] = {0, 0, 0};
