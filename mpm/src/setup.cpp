@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <numeric>
@@ -257,8 +258,14 @@ SceneSetup make_setup(const Scene& sc) {
   // follows the stage's masks (boundary.hpp).
   const bool friction = std::any_of(sc.walls.begin(), sc.walls.end(), [](const Wall& w) { return w.mu.has_value(); }) ||
                         (sc.base && sc.base->mu);
-  for (const Wall& w : sc.walls)
-    if (w.mu && !(*w.mu >= 0)) fail(w.key.substr(0, w.key.rfind('.')) + ".mu", "must be >= 0, got " + fmt(*w.mu));
+  int frictional_walls = 0;
+  for (const Wall& w : sc.walls) {
+    if (!w.mu) continue;
+    const std::string key = w.key.substr(0, w.key.rfind('.')) + ".mu";
+    if (!(*w.mu >= 0)) fail(key, "must be >= 0, got " + fmt(*w.mu));
+    if (++frictional_walls > static_cast<int>(std::size(ContactTable{}.walls)))
+      fail(key, "at most one frictional wall per side of the grid");
+  }
   if (sc.base && sc.base->mu && !(*sc.base->mu >= 0)) fail("base.mu", "must be >= 0, got " + fmt(*sc.base->mu));
   const double tol = 1e-9 * sc.h;
   double stage_start = 0;  // as the driver sums the stage durations

@@ -283,6 +283,9 @@ TEST(MpmIo, BoundaryKeysAreReadAndCheckedWithFileLineAndKey) {
   in_code.walls[1].mu = -0.5;
   EXPECT_THROW(make_setup(in_code), SceneError);
   in_code = mpm::load_scene(write_tmp("friction", good));
+  for (int k = 0; k < 6; ++k) in_code.walls.push_back(in_code.walls[1]);  // 7 frictional walls
+  EXPECT_THROW(make_setup(in_code), SceneError);
+  in_code = mpm::load_scene(write_tmp("friction", good));
   in_code.stages[0].gate->normal = {1.0, 0.5};
   in_code.stages[0].gate->normal_only = false;
   try {
