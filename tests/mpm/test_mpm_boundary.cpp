@@ -47,10 +47,11 @@ Scene incline_scene(int dim, double theta, std::optional<double> mu, bool no_sli
   Body b;
   b.box_min = {0.1, 0.0};
   b.box_max = {0.5, 0.06};
-  if (dim == 3) {
-    sc.size.push_back(0.06);
+  if (dim == 3) {  // shorter and thinner: 480 points
+    b.box_max[0] = 0.3;
+    sc.size.push_back(0.04);
     b.box_min.push_back(0.0);
-    b.box_max.push_back(0.06);
+    b.box_max.push_back(0.04);
   }
   sc.bodies = {b};
   sc.gravity.assign(dim, 0.0);
@@ -61,7 +62,7 @@ Scene incline_scene(int dim, double theta, std::optional<double> mu, bool no_sli
   sc.walls = {floor};
   if (dim == 3) {  // the slab between free-slip walls in z
     sc.walls.push_back({2, false, 0.0, false, "wall[1].side"});
-    sc.walls.push_back({2, true, 0.06, false, "wall[2].side"});
+    sc.walls.push_back({2, true, 0.04, false, "wall[2].side"});
   }
   return sc;
 }

@@ -16,6 +16,7 @@
 
 namespace granflow::mpm {
 
+// Mask bit of a node that goes through contact_node (bits 0 to D - 1: components held).
 inline constexpr std::uint8_t kContactNode = 0x80;
 
 // A wall with Coulomb friction: nodes on and beyond `position` along `axis`.
@@ -39,8 +40,8 @@ struct ContactTable {
   int n_segments = 0;  // of the frictional base (2D), stored after the table
   FrictionWall walls[6];
   double base_mu = 0;
-  // Lifting gate: the gate's half-space (x - point) . normal >= 0, above its lower edge, which
-  // is at point's height (y) at lift_start and rises at lift_speed.
+  // Lifting gate: the gate's half-space (x - point) . normal >= 0, at and above its lower
+  // edge, which is at point's height (y) at lift_start and rises at lift_speed.
   int gate_lifting = 0;
   int gate_bits = 0;  // components it holds
   double gate_point[3] = {0, 0, 0}, gate_normal[3] = {0, 0, 0};
