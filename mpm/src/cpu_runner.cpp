@@ -38,6 +38,7 @@ class CpuRunner final : public Runner {
     dtlim_.resize(n_);
     status_.resize(n_);
     info_.resize(n_);
+    for (size_t s = 0; s < masks_.size(); ++s) contacts_.push_back(stage_has_contacts(su, static_cast<int>(s)));
     set_stage(0, 0.0, su.scene.flip);
   }
 
@@ -47,7 +48,17 @@ class CpuRunner final : public Runner {
     sp_.flip = S(flip);
   }
 
+  // The span's steps start from its time (a lifting gate's edge depends on it).
+  SpanResult advance_span(const Span& s) override {
+    t_ = s.t;
+    return Runner::advance_span(s);
+  }
+
+  // One step from the runner's clock: the time the last span started from plus the steps
+  // taken since (Runner::advance_span adds them in the same order).
   StepResult step(double dt, bool want_dt_limit) override {
+    sp_.t = t_;
+    t_ += dt;
     sp_.dt = S(dt);
     sp_.want_dt_limit = want_dt_limit ? 1 : 0;
     const ParticleView<S> pv{part_.data(), n_};
@@ -56,9 +67,10 @@ class CpuRunner final : public Runner {
     p2g(pv, gv);
     times_.p2g += seconds_since(t0);
     t0 = Clock::now();
-    const long nn = sp_.grid.n_nodes;
-#pragma omp parallel for schedule(static)
-    for (long I = 0; I < nn; ++I) grid_update_node<D, S, Model, kBoundary>(gv, I, sp_);
+    if (kBoundary && contacts_[stage_])
+      grid_update<kBoundary>(gv);
+    else
+      grid_update<false>(gv);
     times_.grid += seconds_since(t0);
     t0 = Clock::now();
     std::uint32_t any = 0;
@@ -173,6 +185,13 @@ class CpuRunner final : public Runner {
   long nodes() const override { return sp_.grid.n_nodes; }
 
  private:
+  template <bool kContacts>
+  void grid_update(const GridView<S>& gv) {
+    const long nn = sp_.grid.n_nodes;
+#pragma omp parallel for schedule(static)
+    for (long I = 0; I < nn; ++I) grid_update_node<D, S, Model, kBoundary, kContacts>(gv, I, sp_);
+  }
+
   void p2g(const ParticleView<S>& pv, const GridView<S>& gv) {
     const long nn = sp_.grid.n_nodes;
     // 1. bin by the lowest stencil node (stable counting sort: order by particle index)
@@ -229,9 +248,11 @@ class CpuRunner final : public Runner {
   }
 
   std::vector<std::vector<std::uint8_t>> masks_;
+  std::vector<bool> contacts_;  // per stage: friction or a lifting gate (stage_has_contacts)
   StepParams<D, S, Model> sp_;
   long n_;
   int stage_ = 0;
+  double t_ = 0;
   std::vector<S> part_, grid_, dtlim_, trbar_;
   std::vector<long> bin_start_, order_, key_, fill_;
   std::vector<std::uint32_t> status_, info_;

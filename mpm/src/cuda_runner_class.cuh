@@ -103,6 +103,7 @@ class CudaRunner final : public Runner {
   int key_bits_ = 32;
   int stage_ = 0;
   double damping_ = 0, flip_ = 0;
+  double t_ = 0;  // time after the last span: step() goes on from it
   long since_sort_ = 0;
   cudaStream_t stream_ = nullptr;
   S* part_ = nullptr;              // particle fields (ParticleLayout), slots in sorted order
@@ -129,6 +130,7 @@ class CudaRunner final : public Runner {
   S* sub_out_ = nullptr;
   long sub_cap_ = 0;
   std::vector<std::uint8_t*> masks_;
+  std::vector<bool> contacts_;  // per stage: the grid kernel with contact_node (cuda_step.cuh)
   std::map<long, cudaGraphExec_t> graphs_;
   cudaEvent_t ev_[kNumEvents];
   PhaseTimes times_;

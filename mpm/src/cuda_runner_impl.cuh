@@ -86,6 +86,7 @@ inline CudaRunner<D, S, Model, Shape, kBoundary>::CudaRunner(const SceneSetup& s
       check(cudaMemcpy(d, m.data(), m.size(), cudaMemcpyHostToDevice), "upload masks");
     }
     masks_.push_back(d);
+    contacts_.push_back(stage_has_contacts(su, static_cast<int>(masks_.size()) - 1));
   }
   for (auto& e : ev_) check(cudaEventCreate(&e), "cudaEventCreate");
   preload();

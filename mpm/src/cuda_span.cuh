@@ -44,6 +44,7 @@ __device__ __forceinline__ StepParams<D, S, Model> with_span(const StepParams<D,
   sp.flip = S(c->flip);
   sp.damping = S(c->damping);
   sp.want_dt_limit = c->adaptive;
+  sp.t = c->t;
   return sp;
 }
 
@@ -106,6 +107,7 @@ template <int D, class S, class Model, class Shape, bool kBoundary>
 inline StepResult CudaRunner<D, S, Model, Shape, kBoundary>::step(double dt, bool want_dt_limit) {
   Span s;
   s.max_steps = 1;
+  s.t = t_;
   s.dt = dt;
   s.adaptive = want_dt_limit;
   s.dt_max = std::numeric_limits<double>::infinity();  // next dt = the limit itself
@@ -148,6 +150,7 @@ inline SpanResult CudaRunner<D, S, Model, Shape, kBoundary>::advance_span(const 
   times_.device += 1e-3 * ms;
   times_.span_steps += o.steps;
   times_.deferred += static_cast<long>(o.deferred);
+  t_ = o.t;
   SpanResult r;
   r.steps = o.steps;
   r.t = o.t;

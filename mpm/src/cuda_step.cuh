@@ -150,14 +150,14 @@ __global__ void __launch_bounds__(kP2GBlock, p2g_min_blocks<S>())
 // both shapes), so its momentum and force are zero too and G2P weighs its velocities by zero:
 // nothing to do. Other nodes are updated and their mass, momentum and force cleared for the
 // next P2G (the grid starts zeroed).
-template <int D, class S, class Model, bool kBoundary>
+template <int D, class S, class Model, bool kBoundary, bool kContacts>
 __global__ void grid_kernel(GridView<S> gv, StepParams<D, S, Model> sp0, const SpanControl* ctl) {
   if (!ctl->active) return;
   const long I = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
   if (I >= gv.n) return;
   if (gv.f(GridLayout<D>::M, I) == S(0)) return;
   const StepParams<D, S, Model> sp = with_span(sp0, ctl);
-  grid_update_node<D, S, Model, kBoundary>(gv, I, sp);
+  grid_update_node<D, S, Model, kBoundary, kContacts>(gv, I, sp);
   for (int f = 0; f < 1 + 2 * D; ++f) gv.f(f, I) = S(0);
 }
 
@@ -297,7 +297,8 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary>::preload() const {
   const void* k[] = {reinterpret_cast<const void*>(p2g_kernel<D, S, Model, Shape, kP2GAtomic>),
                      reinterpret_cast<const void*>(p2g_kernel<D, S, Model, Shape, kP2GWarp>),
                      reinterpret_cast<const void*>(p2g_kernel<D, S, Model, Shape, kP2GTile>),
-                     reinterpret_cast<const void*>(grid_kernel<D, S, Model, kBoundary>),
+                     reinterpret_cast<const void*>(grid_kernel<D, S, Model, kBoundary, false>),
+                     reinterpret_cast<const void*>(grid_kernel<D, S, Model, kBoundary, kBoundary>),
                      reinterpret_cast<const void*>(g2p_kernel<D, S, Model, Shape, 256, 1>),
                      reinterpret_cast<const void*>(g2p_kernel<D, S, Model, Shape, 128, 3>),
                      reinterpret_cast<const void*>(g2p_kinematics_kernel<D, S, Model, Shape>),
@@ -332,7 +333,10 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary>::enqueue_step(bool timed) 
       break;
   }
   if (timed) cudaEventRecord(ev_[kGrid0], stream_);
-  grid_kernel<D, S, Model, kBoundary><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
+  if (kBoundary && contacts_[stage_])  // friction or a lifting gate (boundary.hpp)
+    grid_kernel<D, S, Model, kBoundary, kBoundary><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
+  else
+    grid_kernel<D, S, Model, kBoundary, false><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
   if (timed) cudaEventRecord(ev_[kG2P0], stream_);
   if (split()) {
     const unsigned eb = blocks_for(n_, kSplitBlock);
@@ -381,7 +385,7 @@ inline std::string CudaRunner<D, S, Model, Shape, kBoundary>::config() const {
     s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GWarp>, kP2GBlock);
   else
     s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GTile>, kP2GBlock);
-  s += kernel_info("grid update", grid_kernel<D, S, Model, kBoundary>, kGridBlock);
+  s += kernel_info("grid update", grid_kernel<D, S, Model, kBoundary, false>, kGridBlock);
   if (split()) {
     if (opt_.g2p_reg_cap)
       s += kernel_info("G2P + elastic part", g2p_elastic_kernel<D, S, Model, Shape, kElasticCap>, kSplitBlock);

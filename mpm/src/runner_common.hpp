@@ -60,6 +60,7 @@ StepParams<D, S, Model> step_params(const SceneSetup& su) {
   sp.cfl = S(su.scene.cfl);
   sp.want_dt_limit = 0;
   sp.vol_avg = su.scene.volumetric_averaging ? 1 : 0;
+  sp.t = 0;
   return sp;
 }
 

@@ -275,7 +275,16 @@ Scene read_scene(const toml::table& doc, const std::string& path, const std::str
     wall.at_max = side[1] == '+';
     wall.position = w.number_or("position", wall.at_max ? sc.origin[wall.axis] + sc.size[wall.axis]
                                                         : sc.origin[wall.axis]);
-    wall.no_slip = w.choice("type", {"no_slip", "free_slip"}, "no_slip") == "no_slip";
+    // type = "frictional" with mu (mu alone implies it); no_slip and free_slip take no mu
+    const std::string type = w.choice("type", {"no_slip", "free_slip", "frictional"}, w.has("mu") ? "frictional" : "no_slip");
+    wall.no_slip = type == "no_slip";
+    if (type == "frictional") {
+      if (!w.has("mu")) w.fail("mu", "required with type = \"frictional\" (the Coulomb friction coefficient, >= 0)");
+      wall.mu = w.number("mu", Bounds::non_negative());
+      note(w, "mu");
+    } else if (w.has("mu")) {
+      w.fail("mu", "friction needs type = \"frictional\" (this wall is \"" + type + "\")");
+    }
     wall.key = w.dotted("side");
     note(w, "side");
     if (wall.position < sc.origin[wall.axis] || wall.position > sc.origin[wall.axis] + sc.size[wall.axis])
@@ -296,6 +305,7 @@ Scene read_scene(const toml::table& doc, const std::string& path, const std::str
     base.x = increasing(*b, "x");
     base.y = b->numbers("y", Bounds::any(), false);
     if (base.y.size() != base.x.size()) b->fail("y", "needs as many points as base.x");
+    if (b->has("mu")) base.mu = b->number("mu", Bounds::non_negative());  // absent: no-slip
     b->finish();
     sc.base = base;
   }
@@ -318,8 +328,12 @@ Scene read_scene(const toml::table& doc, const std::string& path, const std::str
       if (nz == 0) g->fail("normal", "must not be zero");
       if (gate.normal_only && nz != 1)
         g->fail("hold", "\"normal\" needs an axis-aligned normal; use \"all\" for an inclined gate");
+      gate.lift_speed = g->number_or("lift_speed", 0.0, Bounds::positive());
+      if (gate.lift_speed > 0 && gate.normal[1] != 0)
+        g->fail("lift_speed", "a gate is lifted along y: its normal must have no y component (a vertical gate)");
       note(*g, "normal");
       note(*g, "hold");
+      note(*g, "lift_speed");
       g->finish();
       st.gate = gate;
     }

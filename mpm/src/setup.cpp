@@ -1,6 +1,8 @@
 // Scene -> set-up: particle seeding, initial stress, node masks, consistency checks.
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <numeric>
@@ -8,6 +10,7 @@
 
 #include <unistd.h>
 
+#include <granflow/mpm/boundary.hpp>
 #include <granflow/mpm/runner.hpp>
 
 namespace granflow::mpm {
@@ -251,10 +254,25 @@ SceneSetup make_setup(const Scene& sc) {
     }
   }
   for (const Stage& st : sc.stages) su.has_boundary = su.has_boundary || st.gate.has_value();
+  // Friction and lifting gates: their nodes are flagged (kContactNode) and a ContactTable
+  // follows the stage's masks (boundary.hpp).
+  const bool friction = std::any_of(sc.walls.begin(), sc.walls.end(), [](const Wall& w) { return w.mu.has_value(); }) ||
+                        (sc.base && sc.base->mu);
+  int frictional_walls = 0;
+  for (const Wall& w : sc.walls) {
+    if (!w.mu) continue;
+    const std::string key = w.key.substr(0, w.key.rfind('.')) + ".mu";
+    if (!(*w.mu >= 0)) fail(key, "must be >= 0, got " + fmt(*w.mu));
+    if (++frictional_walls > static_cast<int>(std::size(ContactTable{}.walls)))
+      fail(key, "at most one frictional wall per side of the grid");
+  }
+  if (sc.base && sc.base->mu && !(*sc.base->mu >= 0)) fail("base.mu", "must be >= 0, got " + fmt(*sc.base->mu));
   const double tol = 1e-9 * sc.h;
+  double stage_start = 0;  // as the driver sums the stage durations
   for (size_t si = 0; si < sc.stages.size(); ++si) {
     const Stage& st = sc.stages[si];
     int gate_axis = -1;
+    const bool lifting = st.gate && st.gate->lift_speed != 0;
     if (st.gate) {
       int nz = 0;
       for (int d = 0; d < D; ++d)
@@ -263,11 +281,18 @@ SceneSetup make_setup(const Scene& sc) {
       if (st.gate->normal_only && nz != 1)
         fail("stage[" + std::to_string(si) + "].gate.hold",
              "\"normal\" needs an axis-aligned normal; use \"all\" for an inclined gate");
+      if (!(st.gate->lift_speed >= 0))
+        fail("stage[" + std::to_string(si) + "].gate.lift_speed", "must be >= 0 (0: held whole while the stage lasts), got " + fmt(st.gate->lift_speed));
+      if (lifting && st.gate->normal[1] != 0)
+        fail("stage[" + std::to_string(si) + "].gate.lift_speed",
+             "a gate is lifted along y: its normal must have no y component (a vertical gate)");
     }
     std::vector<std::uint8_t> mask;
     if (su.has_boundary) {
       mask.assign(su.n_nodes, 0);
       const std::uint8_t all = static_cast<std::uint8_t>((1u << D) - 1);
+      const std::uint8_t gate_bits =
+          st.gate ? (st.gate->normal_only ? static_cast<std::uint8_t>(1u << gate_axis) : all) : 0;
       for (long k = 0; k < su.n_nodes; ++k) {
         long kk = k;
         double x[3];
@@ -276,20 +301,66 @@ SceneSetup make_setup(const Scene& sc) {
           kk /= su.nodes[d];
         }
         std::uint8_t m = 0;
+        bool contact = false;
         for (const Wall& w : sc.walls) {
-          const bool beyond = w.at_max ? x[w.axis] >= w.position - tol : x[w.axis] <= w.position + tol;
-          if (beyond) m |= w.no_slip ? all : static_cast<std::uint8_t>(1u << w.axis);
+          if (!beyond_wall(w.axis, w.at_max, w.position, x, tol)) continue;
+          if (w.mu)
+            contact = true;
+          else
+            m |= w.no_slip ? all : static_cast<std::uint8_t>(1u << w.axis);
         }
-        if (sc.base && x[1] <= polyline(sc.base->x, sc.base->y, x[0]) + tol) m |= all;
+        if (sc.base && x[1] <= polyline(sc.base->x, sc.base->y, x[0]) + tol) {
+          if (sc.base->mu)
+            contact = true;
+          else
+            m |= all;
+        }
         if (st.gate) {
           double s = 0;
           for (int d = 0; d < D; ++d) s += (x[d] - st.gate->point[d]) * st.gate->normal[d];
-          if (s >= -tol) m |= st.gate->normal_only ? static_cast<std::uint8_t>(1u << gate_axis) : all;
+          if (s >= -tol) {
+            if (lifting)
+              contact = true;
+            else
+              m |= gate_bits;
+          }
         }
+        if (contact && m != all) m |= kContactNode;
         mask[k] = m;
+      }
+      if (friction || lifting) {
+        ContactTable c;
+        for (int d = 0; d < D; ++d) c.origin[d] = su.origin[d];
+        c.h = sc.h;
+        c.tol = tol;
+        for (const Wall& w : sc.walls)
+          if (w.mu) c.walls[c.n_walls++] = FrictionWall{w.axis, w.at_max ? 1 : 0, w.position, *w.mu};
+        std::vector<BaseSegment> segments;
+        if (sc.base && sc.base->mu) {
+          for (size_t i = 1; i < sc.base->x.size(); ++i)
+            segments.push_back({sc.base->x[i - 1], sc.base->y[i - 1], sc.base->x[i], sc.base->y[i]});
+          c.n_segments = static_cast<int>(segments.size());
+          c.base_mu = *sc.base->mu;
+        }
+        if (lifting) {
+          c.gate_lifting = 1;
+          c.gate_bits = gate_bits;
+          for (int d = 0; d < D; ++d) {
+            c.gate_point[d] = st.gate->point[d];
+            c.gate_normal[d] = st.gate->normal[d];
+          }
+          c.lift_speed = st.gate->lift_speed;
+          c.lift_start = stage_start;
+        }
+        const size_t at = static_cast<size_t>(contact_table_offset(su.n_nodes));
+        const size_t seg_bytes = segments.size() * sizeof(BaseSegment);
+        mask.resize(at + sizeof c + seg_bytes, 0);
+        std::memcpy(mask.data() + at, &c, sizeof c);
+        if (seg_bytes) std::memcpy(mask.data() + at + sizeof c, segments.data(), seg_bytes);
       }
     }
     su.stage_masks.push_back(std::move(mask));
+    stage_start += st.duration;
   }
 
   // Tracked particles: nearest to the requested points.

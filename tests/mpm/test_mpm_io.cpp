@@ -230,6 +230,72 @@ TEST(MpmIo, BadScenesGiveClearErrors) {
   }
 }
 
+// Friction and lifting gates: the keys are read, and a bad value names the file, its line and
+// the key.
+TEST(MpmIo, BoundaryKeysAreReadAndCheckedWithFileLineAndKey) {
+  const std::string good = replace(replace(kGood, "side = \"y-\"", "side = \"y-\"\nmu = 0.3"),
+                                   "duration = 0.002",
+                                   "duration = 0.002\n[stage.gate]\npoint = [0.1, 0]\nnormal = [1, 0]\nlift_speed = 0.5");
+  const Scene sc = mpm::load_scene(write_tmp("friction", good));
+  ASSERT_EQ(sc.walls.size(), 2u);
+  EXPECT_FALSE(sc.walls[0].mu.has_value());  // free_slip
+  ASSERT_TRUE(sc.walls[1].mu.has_value());   // mu alone: frictional
+  EXPECT_EQ(*sc.walls[1].mu, 0.3);
+  ASSERT_TRUE(sc.stages[0].gate.has_value());
+  EXPECT_EQ(sc.stages[0].gate->lift_speed, 0.5);
+  EXPECT_EQ(load_error("friction_ok", good), "");
+  const std::string base = replace(kGood, "[[stage]]", "[base]\nx = [0.0, 0.4]\ny = [0.0, 0.0]\nmu = 0.2\n\n[[stage]]");
+  ASSERT_TRUE(mpm::load_scene(write_tmp("base_mu", base)).base->mu.has_value());
+
+  // line of the offending key in the text (1-based)
+  auto line_of = [](const std::string& text, const std::string& key) {
+    const size_t p = text.find(key);
+    EXPECT_NE(p, std::string::npos) << key;
+    return 1 + std::count(text.begin(), text.begin() + static_cast<long>(p), '\n');
+  };
+  struct Bad {
+    std::string text, key, expect, line_key;
+  };
+  const Bad cases[] = {
+      {replace(kGood, "side = \"y-\"", "side = \"y-\"\nmu = -0.1"), "wall[1].mu", "must be >= 0", "mu = -0.1"},
+      {replace(kGood, "side = \"y-\"", "side = \"y-\"\ntype = \"frictional\"\nmu = -1"), "wall[1].mu", ">= 0",
+       "mu = -1"},
+      {replace(kGood, "side = \"y-\"", "side = \"y-\"\ntype = \"frictional\""), "wall[1].mu", "required", "[[wall]]\nside = \"y-\""},
+      {replace(kGood, "type = \"free_slip\"", "type = \"free_slip\"\nmu = 0.3"), "wall[0].mu",
+       "friction needs type = \"frictional\"", "mu = 0.3"},
+      {replace(base, "mu = 0.2", "mu = -0.2"), "base.mu", "must be >= 0", "mu = -0.2"},
+      {replace(good, "lift_speed = 0.5", "lift_speed = 0"), "stage[0].gate.lift_speed", "must be > 0", "lift_speed = 0"},
+      {replace(good, "lift_speed = 0.5", "lift_speed = -1"), "stage[0].gate.lift_speed", "must be > 0", "lift_speed = -1"},
+      {replace(replace(good, "normal = [1, 0]", "normal = [1, 1]\nhold = \"all\""), "point = [0.1, 0]", "point = [0.1, 0.1]"),
+       "stage[0].gate.lift_speed", "no y component", "lift_speed = 0.5"},
+  };
+  for (const Bad& c : cases) {
+    const std::string err = load_error("bad_boundary", c.text);
+    const std::string file = write_tmp("bad_boundary", c.text);
+    const std::string at = file + ":" + std::to_string(line_of(c.text, c.line_key));
+    EXPECT_NE(err.find(at), std::string::npos) << "expected '" << at << "' in: " << err;
+    EXPECT_NE(err.find("'" + c.key + "'"), std::string::npos) << "expected '" << c.key << "' in: " << err;
+    EXPECT_NE(err.find(c.expect), std::string::npos) << "expected '" << c.expect << "' in: " << err;
+  }
+
+  // scenes built in code are checked by make_setup (keys without a file)
+  Scene in_code = mpm::load_scene(write_tmp("friction", good));
+  in_code.walls[1].mu = -0.5;
+  EXPECT_THROW(make_setup(in_code), SceneError);
+  in_code = mpm::load_scene(write_tmp("friction", good));
+  for (int k = 0; k < 6; ++k) in_code.walls.push_back(in_code.walls[1]);  // 7 frictional walls
+  EXPECT_THROW(make_setup(in_code), SceneError);
+  in_code = mpm::load_scene(write_tmp("friction", good));
+  in_code.stages[0].gate->normal = {1.0, 0.5};
+  in_code.stages[0].gate->normal_only = false;
+  try {
+    make_setup(in_code);
+    ADD_FAILURE() << "an inclined lifting gate was accepted";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.key(), "stage[0].gate.lift_speed");
+  }
+}
+
 TEST(MpmIo, ParticleLeavingTheGridStopsWithMessageAndLastGoodFrame) {
   Scene sc = mpm::load_scene(write_tmp("leave", kGood));
   sc.walls.clear();  // nothing holds the block: it falls out of the grid

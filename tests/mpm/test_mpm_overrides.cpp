@@ -161,8 +161,10 @@ void expect_same_scene(const Scene& a, const Scene& b) {
     EXPECT_EQ(a.walls[i].at_max, b.walls[i].at_max);
     EXPECT_NEAR(a.walls[i].position, b.walls[i].position, tol);
     EXPECT_EQ(a.walls[i].no_slip, b.walls[i].no_slip);
+    EXPECT_EQ(a.walls[i].mu, b.walls[i].mu);
   }
   ASSERT_EQ(a.base.has_value(), b.base.has_value());
+  if (a.base) EXPECT_EQ(a.base->mu, b.base->mu);
   if (a.base)
     for (size_t k = 0; k < a.base->x.size(); ++k) {
       EXPECT_NEAR(a.base->x[k], b.base->x[k], tol);
@@ -177,6 +179,7 @@ void expect_same_scene(const Scene& a, const Scene& b) {
       EXPECT_NEAR(a.stages[i].gate->point[0], b.stages[i].gate->point[0], tol);
       EXPECT_EQ(a.stages[i].gate->normal, b.stages[i].gate->normal);
       EXPECT_EQ(a.stages[i].gate->normal_only, b.stages[i].gate->normal_only);
+      EXPECT_EQ(a.stages[i].gate->lift_speed, b.stages[i].gate->lift_speed);
     }
   }
   ASSERT_EQ(a.runout_x.size(), b.runout_x.size());

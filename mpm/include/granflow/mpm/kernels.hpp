@@ -1,7 +1,8 @@
 // The MPM step, written once for every backend (MODEL.md 9; STYLE.md: one phase, one function).
 //
 //   1. P2G   (p2g_load + p2g_contribution): mass, momentum and force  f = -sum V sigma grad N
-//   2. grid  (grid_update_node): v_old = p/m, v_new = v_old + dt (f/m + g), boundary masks
+//   2. grid  (grid_update_node): v_old = p/m, v_new = v_old + dt (f/m + g), boundary masks,
+//            friction and lifting gates (boundary.hpp)
 //   3. G2P   (g2p_particle): FLIP/PIC velocity, position with the grid velocity, velocity
 //            gradient from v_new, then the constitutive update (Model::update, Jaumann inside).
 //
@@ -16,6 +17,7 @@
 
 #include <granflow/constitutive.hpp>
 
+#include "boundary.hpp"
 #include "layout.hpp"
 #include "shape.hpp"
 
@@ -53,6 +55,7 @@ struct StepParams {
   S cfl;              // safety factor of the time-step limit
   int want_dt_limit;  // compute the per-particle stable time step in G2P
   int vol_avg;        // replace tr L by its volume-weighted mean over the particle's bin
+  double t;           // time at the start of the step [s] (the lifting gate's edge)
 };
 
 // ---- 1. P2G ------------------------------------------------------------------------------
@@ -151,7 +154,11 @@ GF_HDI bool stencil_base(const S* xi, const GridDesc<D, S>& g, int* base) {
 
 // ---- 2. grid update ----------------------------------------------------------------------
 
-template <int D, class S, class Model, bool kBoundary>
+// kContacts (with kBoundary): nodes flagged kContactNode go through contact_node (friction,
+// lifting gates: boundary.hpp). A separate instantiation, run only for the stages that have
+// them: the call alone, never taken, made the update of every node slower (CPU: 0.75 -> 1.5 ms
+// per 360,000 nodes; CUDA grid kernel: 28 -> 50 registers in fp32, 38 -> 58 in fp64).
+template <int D, class S, class Model, bool kBoundary, bool kContacts = false>
 GF_HDI void grid_update_node(const GridView<S>& gv, long I, const StepParams<D, S, Model>& sp) {
   using G = GridLayout<D>;
   const S m = gv.f(G::M, I);
@@ -176,6 +183,9 @@ GF_HDI void grid_update_node(const GridView<S>& gv, long I, const StepParams<D, 
     }
     gv.f(G::VOLD + d, I) = vo;
     gv.f(G::VNEW + d, I) = vn;
+  }
+  if constexpr (kBoundary && kContacts) {
+    if (mask & kContactNode) contact_node<D, S>(gv, I, sp.grid.nodes, sp.t);
   }
 }
 

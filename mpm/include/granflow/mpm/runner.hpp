@@ -33,11 +33,18 @@ struct SceneSetup {
   std::vector<AxisWalls> walls; // per axis: wall node rows for the boundary-modified B-splines
   long n_nodes = 0;
   double spacing = 0;           // initial particle spacing h / ppc_axis
-  std::vector<std::vector<std::uint8_t>> stage_masks;  // one node mask per stage
+  // One node mask per stage, followed by its ContactTable where it has one (boundary.hpp).
+  std::vector<std::vector<std::uint8_t>> stage_masks;
   bool has_boundary = false;
   std::vector<long> tracked;    // particle index per scene.tracks entry
   double dt_estimate = 0;       // h / c_p of the at-rest material (first adaptive step: cfl times this)
 };
+
+// The stage's block holds a ContactTable after its masks (friction or a lifting gate): its
+// grid update needs the kContacts instantiation of grid_update_node.
+inline bool stage_has_contacts(const SceneSetup& su, int stage) {
+  return su.stage_masks[stage].size() > static_cast<size_t>(su.n_nodes);
+}
 
 // Seeds particles, sets the initial stress, builds the node masks and checks the scene
 // (material inside the grid, time step below the stability limit, boundary conditions).

@@ -50,18 +50,28 @@ struct Wall {
   double position = 0;
   bool no_slip = true;    // no-slip: all components held; free-slip (roller): the normal one
   std::string key;        // for messages
+  // Coulomb friction coefficient (>= 0): a frictional wall instead (no_slip unused); its
+  // nodes go through the contact condition of boundary.hpp.
+  std::optional<double> mu;
 };
 
 // Rigid base given as a polyline y = b(x) (x increasing): every node with y <= b(x) has all
 // components held (no-slip on an inclined plane: the flume). 2D only.
 struct BaseLine {
   std::vector<double> x, y;
+  // Coulomb friction coefficient (>= 0): the contact condition with the normal of the
+  // segment above the node instead of the no-slip hold.
+  std::optional<double> mu;
 };
 
 // A gate: nodes with (x - point) . normal >= 0 are held while the stage lasts.
 struct Gate {
   std::vector<double> point, normal;
   bool normal_only = true;  // hold only the normal component (axis-aligned normals only)
+  // > 0 [m/s]: the gate is lifted from the start of its stage; it holds only the nodes at and
+  // above its lower edge, at point's height (y) at the start and rising at lift_speed. The
+  // normal must be horizontal. 0: held whole while the stage lasts.
+  double lift_speed = 0;
 };
 
 struct Stage {

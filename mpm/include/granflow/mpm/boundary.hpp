@@ -1,0 +1,160 @@
+// Boundary conditions of the grid update besides the held components of the node masks:
+// Coulomb friction at walls and at the base polyline, and a gate lifted at a finite speed.
+//
+// A stage's boundary is one block of bytes (SceneSetup::stage_masks, uploaded as it is): one
+// mask byte per node (bit d: velocity component d held at zero; kContactNode: the node goes
+// through contact_node), then, where the scene has friction or the stage a lifting gate, a
+// ContactTable at the next 16-byte boundary, followed by its base segments. Which walls, base
+// segment or gate act on a flagged node is decided from the node's position with the same
+// predicates make_setup uses, so there is one definition of "held" for host and device.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include "layout.hpp"
+
+namespace granflow::mpm {
+
+// Mask bit of a node that goes through contact_node (bits 0 to D - 1: components held).
+inline constexpr std::uint8_t kContactNode = 0x80;
+
+// A wall with Coulomb friction: nodes on and beyond `position` along `axis`.
+struct FrictionWall {
+  int axis = 0;
+  int at_max = 0;  // 0: bounds the domain from below (x <= position)
+  double position = 0;
+  double mu = 0;
+};
+
+// One segment of the base polyline y = b(x), x0 < x1.
+struct BaseSegment {
+  double x0, y0, x1, y1;
+};
+
+struct ContactTable {
+  double origin[3] = {0, 0, 0};  // node coordinates origin + I h, as make_setup computes them
+  double h = 0;
+  double tol = 0;  // of the "on or beyond" tests (make_setup: 1e-9 h)
+  int n_walls = 0;
+  int n_segments = 0;  // of the frictional base (2D), stored after the table
+  FrictionWall walls[6];
+  double base_mu = 0;
+  // Lifting gate: the gate's half-space (x - point) . normal >= 0, at and above its lower
+  // edge, which is at point's height (y) at lift_start and rises at lift_speed.
+  int gate_lifting = 0;
+  int gate_bits = 0;  // components it holds
+  double gate_point[3] = {0, 0, 0}, gate_normal[3] = {0, 0, 0};
+  double lift_speed = 0, lift_start = 0;
+};
+
+GF_HDI long contact_table_offset(long n_nodes) { return (n_nodes + 15) / 16 * 16; }
+
+template <class S>
+GF_HDI const ContactTable& contact_table(const GridView<S>& gv) {
+  return *reinterpret_cast<const ContactTable*>(gv.mask + contact_table_offset(gv.n));
+}
+GF_HDI const BaseSegment* base_segments(const ContactTable& c) { return reinterpret_cast<const BaseSegment*>(&c + 1); }
+
+// ---- where a boundary acts (host and device) ---------------------------------------------
+
+GF_HDI bool beyond_wall(int axis, bool at_max, double position, const double* x, double tol) {
+  return at_max ? x[axis] >= position - tol : x[axis] <= position + tol;
+}
+
+// Segment of the polyline at abscissa x: -1 before the first vertex, n past the last (the base
+// continues level there), else the first segment with x <= x1.
+GF_HDI int base_segment_at(const BaseSegment* s, int n, double x) {
+  if (x <= s[0].x0) return -1;
+  if (x >= s[n - 1].x1) return n;
+  for (int i = 0; i < n; ++i)
+    if (x <= s[i].x1) return i;
+  return n;
+}
+
+GF_HDI double base_height(const BaseSegment* s, int n, int i, double x) {
+  if (i < 0) return s[0].y0;
+  if (i >= n) return s[n - 1].y1;
+  return s[i].y0 + (s[i].y1 - s[i].y0) * (x - s[i].x0) / (s[i].x1 - s[i].x0);
+}
+
+// Height of the lifting gate's lower edge at time t.
+GF_HDI double gate_edge(const ContactTable& c, double t) {
+  return c.gate_point[1] + c.lift_speed * (t - c.lift_start);
+}
+
+GF_HDI bool in_gate_halfspace(const double* point, const double* normal, const double* x, int dim, double tol) {
+  double s = 0;
+  for (int d = 0; d < dim; ++d) s += (x[d] - point[d]) * normal[d];
+  return s >= -tol;
+}
+
+// ---- the contact condition ---------------------------------------------------------------
+
+// Coulomb contact with a rigid wall of outward normal n (into the wall), applied to the trial
+// velocity v of a node (Bardenhagen, Brackbill & Sulsky 2000, CMAME 187:529): a node moving
+// into the wall (v.n > 0) loses its normal velocity, and its tangential velocity is reduced
+// by at most mu times that change, never reversed; a separating node is left free.
+// mu = 0 is free slip for approaching nodes (bitwise for axis-aligned normals), large mu
+// no slip.
+template <int D, class S>
+GF_HDI void coulomb_contact(S* v, const double* n, double mu) {
+  S vn = S(0);
+  for (int d = 0; d < D; ++d) vn += v[d] * S(n[d]);
+  if (!(vn > S(0))) return;
+  S vt2 = S(0);
+  for (int d = 0; d < D; ++d) {
+    v[d] -= vn * S(n[d]);
+    vt2 += v[d] * v[d];
+  }
+  const S vt = std::sqrt(vt2);
+  const S slip = vt - S(mu) * vn;  // tangential speed left
+  const S keep = slip > S(0) ? slip / vt : S(0);
+  for (int d = 0; d < D; ++d) v[d] *= keep;
+}
+
+// Velocity of a flagged node after the stage's masks: friction of every frictional wall the
+// node lies on or beyond (in scene order), then of the base, then the lifting gate's hold
+// (t: time at the start of the step).
+template <int D, class S>
+GF_HDI void contact_node(const GridView<S>& gv, long I, const int* nodes, double t) {
+  using G = GridLayout<D>;
+  const ContactTable& c = contact_table(gv);
+  double x[3] = {0, 0, 0};
+  long k = I;
+  for (int d = 0; d < D; ++d) {
+    x[d] = c.origin[d] + static_cast<double>(k % nodes[d]) * c.h;
+    k /= nodes[d];
+  }
+  S v[D];
+  for (int d = 0; d < D; ++d) v[d] = gv.f(G::VNEW + d, I);
+  for (int w = 0; w < c.n_walls; ++w) {
+    const FrictionWall& fw = c.walls[w];
+    if (!beyond_wall(fw.axis, fw.at_max != 0, fw.position, x, c.tol)) continue;
+    double n[3] = {0, 0, 0};
+    n[fw.axis] = fw.at_max ? 1.0 : -1.0;
+    coulomb_contact<D, S>(v, n, fw.mu);
+  }
+  if constexpr (D == 2) {
+    if (c.n_segments > 0) {
+      const BaseSegment* s = base_segments(c);
+      const int i = base_segment_at(s, c.n_segments, x[0]);
+      if (x[1] <= base_height(s, c.n_segments, i, x[0]) + c.tol) {
+        double n[3] = {0, -1, 0};  // level beyond the ends
+        if (i >= 0 && i < c.n_segments) {
+          const double dx = s[i].x1 - s[i].x0, dy = s[i].y1 - s[i].y0, len = std::sqrt(dx * dx + dy * dy);
+          n[0] = dy / len;
+          n[1] = -dx / len;
+        }
+        coulomb_contact<D, S>(v, n, c.base_mu);
+      }
+    }
+  }
+  if (c.gate_lifting && in_gate_halfspace(c.gate_point, c.gate_normal, x, D, c.tol) &&
+      x[1] >= gate_edge(c, t) - c.tol)
+    for (int d = 0; d < D; ++d)
+      if (c.gate_bits & (1 << d)) v[d] = S(0);
+  for (int d = 0; d < D; ++d) gv.f(G::VNEW + d, I) = v[d];
+}
+
+}  // namespace granflow::mpm
