@@ -7,6 +7,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
+#include <thread>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -138,7 +140,12 @@ OutputLock::OutputLock(std::string lock_path, const std::string& what) : path_(s
     if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
       const int e = errno;
       if (e == EWOULDBLOCK) {
-        const LockContent c = parse_lock(read_fd(fd));
+        // The owner writes its pid right after taking the lock: give it a moment to appear.
+        LockContent c = parse_lock(read_fd(fd));
+        for (int wait = 0; c.pid == 0 && wait < 50; ++wait) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(2));
+          c = parse_lock(read_fd(fd));
+        }
         ::close(fd);
         throw InputError(what + " is in use by another granflow run (" +
                          (c.pid > 0 ? c.owner() + ", " : std::string()) + "lock file " + path_ +
