@@ -15,16 +15,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-
-def save_png(fig, path, dpi):
-    """Write to path.tmp and rename, so that a failed plot leaves no partial PNG under path."""
-    tmp = path + ".tmp"
-    try:
-        fig.savefig(tmp, dpi=dpi, format="png")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+from png_output import save_png  # noqa: E402  (beside this script)
 
 
 # Units of the model outputs (element-test result columns, docs/elementtest.md) and abscissae.

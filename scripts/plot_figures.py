@@ -14,6 +14,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+from png_output import save_png  # noqa: E402  (beside this script)
+
 
 def read(path, key):
     """Long-format CSV -> OrderedDict label -> dict column -> list."""
@@ -30,17 +32,11 @@ def read(path, key):
 
 
 def save(fig, folder, name):
-    """Write to NAME.tmp and rename, so that a failed plot leaves no partial PNG under NAME."""
     fig.tight_layout()
-    path = os.path.join(folder, name)
-    tmp = path + ".tmp"
     try:
-        fig.savefig(tmp, dpi=110, format="png")
-        os.replace(tmp, path)
+        save_png(fig, os.path.join(folder, name), 110)
     finally:
         plt.close(fig)
-        if os.path.exists(tmp):
-            os.remove(tmp)
     print("  wrote", os.path.join(folder, name))
 
 

@@ -9,16 +9,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-
-def save_png(fig, path, dpi):
-    """Write to path.tmp and rename, so that a failed plot leaves no partial PNG under path."""
-    tmp = path + ".tmp"
-    try:
-        fig.savefig(tmp, dpi=dpi, format="png")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+from png_output import save_png  # noqa: E402  (beside this script)
 
 
 src = sys.argv[1] if len(sys.argv) > 1 else "docs/figures/mpm_column_mesh_series.csv"

@@ -19,6 +19,8 @@ import struct
 import sys
 import xml.etree.ElementTree as ET
 
+from png_output import save_png  # noqa: E402  (beside this script)
+
 # Units of the point arrays (granflow's VTU writer, SI; docs/mpm.md "Outputs").
 UNITS = {
     "p": "Pa", "q": "Pa", "sigma_xx": "Pa", "sigma_yy": "Pa", "sigma_xy": "Pa",
@@ -69,17 +71,6 @@ def lattice_spacing(x, y, np):
         d2[i] = np.inf
         nearest.append(d2.min())
     return float(np.sqrt(np.median(nearest)))
-
-
-def save_png(fig, path, dpi):
-    """Write to path.tmp and rename, so that a failed plot leaves no partial PNG under path."""
-    tmp = path + ".tmp"
-    try:
-        fig.savefig(tmp, dpi=dpi, format="png")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
 
 
 def label(field):
