@@ -297,7 +297,8 @@ part_sanitize() {
              "volumetric averaging|$ci|--set solver.volumetric_averaging=true" "default|$SC/flume_ci.toml|" \
              "sort+tile|$ci|--sort 8 --p2g tile" "sort+tile|$SC/flume_ci.toml|--sort 8 --p2g tile" \
              "sort+warp, no graphs|$ci|--sort 8 --p2g warp --graphs off" \
-             "sort+warp, no graphs|$SC/flume_ci.toml|--sort 8 --p2g warp --graphs off" "split G2P|$ci|--g2p-split on"; do
+             "sort+warp, no graphs|$SC/flume_ci.toml|--sort 8 --p2g warp --graphs off" "split G2P|$ci|--g2p-split on" \
+             "Coulomb floor mu 0.4|$ci|--set wall[2].type=frictional --set wall[2].mu=0.4"; do
     IFS='|' read -r label scene args <<<"$cfg"
     for tool in ${SANITIZE_TOOLS:-memcheck racecheck}; do
       # shellcheck disable=SC2086  # args are words
