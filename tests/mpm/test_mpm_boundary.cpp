@@ -312,13 +312,7 @@ TEST(MpmBoundary, LiftingGateHoldsTheNodesAboveItsLowerEdge) {
   const double t_stage = su.scene.stages[0].duration;
   using FR = FrictionalModel<double>;
   StepParams<2, double, FR> sp{};
-  for (int d = 0; d < 2; ++d) {
-    sp.grid.origin[d] = su.origin[d];
-    sp.grid.nodes[d] = su.nodes[d];
-  }
-  sp.grid.h = su.scene.h;
-  sp.grid.inv_h = 1.0 / su.scene.h;
-  sp.grid.n_nodes = su.n_nodes;
+  sp.grid = test::grid_of(su);
   sp.dt = 1e-4;
   using G = GridLayout<2>;
   const long nn = su.n_nodes;

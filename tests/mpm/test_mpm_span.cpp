@@ -405,13 +405,7 @@ std::vector<double> scatter_p2g(ParticleView<double> pv, const StepParams<2, dou
 
 StepParams<2, double, FR> p2g_params(const SceneSetup& su) {
   StepParams<2, double, FR> sp{};
-  for (int d = 0; d < 2; ++d) {
-    sp.grid.origin[d] = su.origin[d];
-    sp.grid.nodes[d] = su.nodes[d];
-  }
-  sp.grid.h = su.scene.h;
-  sp.grid.inv_h = 1.0 / su.scene.h;
-  sp.grid.n_nodes = su.n_nodes;
+  sp.grid = test::grid_of(su);
   sp.rho_p = su.scene.material.params.c.rho_p;
   return sp;
 }

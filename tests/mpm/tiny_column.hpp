@@ -2,9 +2,24 @@
 // and the consolidation block.
 #pragma once
 
+#include <granflow/mpm/layout.hpp>
+#include <granflow/mpm/runner.hpp>
 #include <granflow/mpm/scene.hpp>
 
 namespace granflow::mpm::test {
+
+// The 2D grid of a set-up as the kernels see it (no walls), for tests that call kernels directly.
+inline GridDesc<2, double> grid_of(const SceneSetup& su) {
+  GridDesc<2, double> g{};
+  for (int d = 0; d < 2; ++d) {
+    g.origin[d] = su.origin[d];
+    g.nodes[d] = su.nodes[d];
+  }
+  g.h = su.scene.h;
+  g.inv_h = 1.0 / su.scene.h;
+  g.n_nodes = su.n_nodes;
+  return g;
+}
 
 inline Scene tiny_column(ModelKind model, ShapeKind shape = ShapeKind::Linear) {
   Scene sc = small_column_scene(model, shape);
