@@ -20,19 +20,30 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-template <int D, class S, class Model, class Shape, bool kBoundary>
+// kMembers: an ensemble (kernels.hpp, Members): every loop finds the member of its particle or
+// node and works on the member's view of the step parameters and the grid.
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
 class CpuRunner final : public Runner {
   using Lay = ParticleLayout<D, Model::kCollisional>;
   using G = GridLayout<D>;
+  using SP = StepParams<D, S, Model>;
   static constexpr int K = Shape::K;
 
  public:
   explicit CpuRunner(const SceneSetup& su)
-      : masks_(su.stage_masks), sp_(detail::step_params<D, S, Model>(su)), n_(su.particles.n) {
+      : masks_(su.stage_masks), sp_(detail::step_params<D, S, Model>(su)), n_(su.particles.n),
+        nn_(su.n_nodes * su.members) {
     part_ = detail::pack<D, S, Model::kCollisional>(su.particles);
-    grid_.assign(static_cast<size_t>(G::N) * sp_.grid.n_nodes, S(0));
-    if (sp_.vol_avg) trbar_.assign(sp_.grid.n_nodes, S(0));
-    bin_start_.assign(sp_.grid.n_nodes + 1, 0);
+    grid_.assign(static_cast<size_t>(G::N) * nn_, S(0));
+    if (sp_.vol_avg) trbar_.assign(nn_, S(0));
+    bin_start_.assign(nn_ + 1, 0);
+    if constexpr (kMembers) {
+      values_ = detail::member_values<D, S, Model>(su);
+      dead_.assign(su.members, 0u);
+      sp_.members.values = values_.data();
+      sp_.members.dead = dead_.data();
+      msp_.assign(su.members, sp_);
+    }
     order_.resize(n_);
     key_.resize(n_);
     dtlim_.resize(n_);
@@ -61,8 +72,13 @@ class CpuRunner final : public Runner {
     t_ += dt;
     sp_.dt = S(dt);
     sp_.want_dt_limit = want_dt_limit ? 1 : 0;
+    if constexpr (kMembers)
+      for (int k = 0; k < sp_.members.count; ++k) {
+        msp_[k] = sp_;
+        apply_member(msp_[k], k);
+      }
     const ParticleView<S> pv{part_.data(), n_};
-    const GridView<S> gv{grid_.data(), sp_.grid.n_nodes, masks_[stage_].data()};
+    const GridView<S> gv{grid_.data(), nn_, masks_[stage_].data()};
     auto t0 = Clock::now();
     p2g(pv, gv);
     times_.p2g += seconds_since(t0);
@@ -81,26 +97,34 @@ class CpuRunner final : public Runner {
 #pragma omp parallel for schedule(dynamic, 256) reduction(| : any)
       for (long p = 0; p < n_; ++p) {
         inf[p] = 0;
-        st[p] = g2p_particle<D, S, Model, Shape>(pv, gv, p, sp_, &lim[p], &inf[p]);
+        st[p] = 0;
+        lim[p] = std::numeric_limits<S>::max();
+        const int k = member_of(p);
+        if (skipped(k)) continue;
+        st[p] = g2p_particle<D, S, Model, Shape>(pv, member_view(gv, k), p, params_of(k), &lim[p], &inf[p]);
         any |= st[p];
       }
     } else {
 #pragma omp parallel for schedule(static) reduction(| : any)
       for (long p = 0; p < n_; ++p) {
         inf[p] = 0;
-        st[p] = g2p_kinematics<D, S, Model, Shape>(pv, gv, p, sp_);
+        st[p] = 0;
+        lim[p] = std::numeric_limits<S>::max();
+        const int k = member_of(p);
+        if (skipped(k)) continue;
+        st[p] = g2p_kinematics<D, S, Model, Shape>(pv, member_view(gv, k), p, params_of(k));
         any |= st[p];
       }
-      if (!any) {
+      if (!any || kMembers) {  // a member whose kinematics failed does not stop the others
         // volume-weighted mean of tr L per bin (the particles binned in P2G, in order)
-        const long nn = sp_.grid.n_nodes;
+        const long nn = nn_;
         S* tb = trbar_.data();
 #pragma omp parallel for schedule(static)
         for (long b = 0; b < nn; ++b) {
           S sv = S(0), st_ = S(0);
           for (long j = bin_start_[b]; j < bin_start_[b + 1]; ++j) {
             S V, tr;
-            volumetric_rate<D, S, Model>(pv, order_[j], sp_, V, tr);
+            volumetric_rate<D, S, Model>(pv, order_[j], params_of(member_of(order_[j])), V, tr);
             sv += V;
             st_ += V * tr;
           }
@@ -108,7 +132,9 @@ class CpuRunner final : public Runner {
         }
 #pragma omp parallel for schedule(dynamic, 256) reduction(| : any)
         for (long p = 0; p < n_; ++p) {
-          st[p] = constitutive_particle<D, S, Model>(pv, p, sp_, tb[key_[p]], &lim[p], &inf[p]);
+          const int k = member_of(p);
+          if (skipped(k) || st[p]) continue;
+          st[p] = constitutive_particle<D, S, Model>(pv, p, params_of(k), tb[key_[p]], &lim[p], &inf[p]);
           any |= st[p];
         }
       }
@@ -164,7 +190,7 @@ class CpuRunner final : public Runner {
   }
 
   void frame(Frame& out, bool diagnostics, const std::vector<long>& subset) override {
-    detail::make_frame<D, S, Model>(part_, n_, sp_.mp, out, diagnostics, subset);
+    detail::make_frame<D, S, Model>(part_, n_, sp_.mp, out, diagnostics, subset, sp_.members);
   }
   void download(HostParticles& out) override { detail::unpack<D, S, Model::kCollisional>(part_, n_, out); }
   void upload(const HostParticles& in) override {
@@ -182,34 +208,68 @@ class CpuRunner final : public Runner {
     return "CPU twin (OpenMP, " + std::to_string(threads) + " threads)";
   }
   long particles() const override { return n_; }
-  long nodes() const override { return sp_.grid.n_nodes; }
+  long nodes() const override { return nn_; }
+
+  std::vector<MemberFailure> retire_failed_members() override {
+    std::vector<MemberFailure> out;
+    if constexpr (kMembers) {
+      for (long p = 0; p < n_; ++p) {
+        const int k = member_of(p);
+        if (status_[p] && !dead_[k]) {
+          dead_[k] = 1;
+          out.push_back({k, p, status_[p]});
+        }
+      }
+    }
+    return out;
+  }
 
  private:
+  int member_of(long p) const {
+    if constexpr (kMembers) return sp_.members.of_particle(p); else return 0;
+  }
+  bool skipped(int k) const {
+    if constexpr (kMembers) return dead_[k] != 0; else return false;
+  }
+  const SP& params_of(int k) const {
+    if constexpr (kMembers) return msp_[k]; else return sp_;
+  }
+  GridView<S> member_view(const GridView<S>& gv, int k) const {
+    if constexpr (kMembers) return member_grid(gv, sp_.members, k); else return gv;
+  }
+
   template <bool kContacts>
   void grid_update(const GridView<S>& gv) {
-    const long nn = sp_.grid.n_nodes;
+    const long nn = nn_, nm = sp_.grid.n_nodes;
 #pragma omp parallel for schedule(static)
-    for (long I = 0; I < nn; ++I) grid_update_node<D, S, Model, kBoundary, kContacts>(gv, I, sp_);
+    for (long I = 0; I < nn; ++I) {
+      const int k = static_cast<int>(I / nm);
+      grid_update_node<D, S, Model, kBoundary, kContacts>(member_view(gv, k), I - k * nm, params_of(k));
+    }
   }
 
   void p2g(const ParticleView<S>& pv, const GridView<S>& gv) {
-    const long nn = sp_.grid.n_nodes;
-    // 1. bin by the lowest stencil node (stable counting sort: order by particle index)
+    const long nn = nn_, nm = sp_.grid.n_nodes;
+    // 1. bin by the lowest stencil node (stable counting sort: order by particle index); the
+    // bins of member k follow those of member k - 1, a retired member's points are left out
     std::fill(bin_start_.begin(), bin_start_.end(), 0L);
 #pragma omp parallel for schedule(static)
     for (long p = 0; p < n_; ++p) {
       S xi[D];
       int base[D];
+      const int k = member_of(p);
       for (int d = 0; d < D; ++d) xi[d] = (pv.f(Lay::X + d, p) - sp_.grid.origin[d]) * sp_.grid.inv_h;
       stencil_base<D, S, Shape>(xi, sp_.grid, base);  // G2P guarantees the stencil is inside
-      key_[p] = sp_.grid.linear(base);
+      key_[p] = skipped(k) ? -1 : k * nm + sp_.grid.linear(base);
     }
-    for (long p = 0; p < n_; ++p) ++bin_start_[key_[p] + 1];
+    for (long p = 0; p < n_; ++p)
+      if (key_[p] >= 0) ++bin_start_[key_[p] + 1];
     for (long k = 0; k < nn; ++k) bin_start_[k + 1] += bin_start_[k];
     {
       std::vector<long>& fill = fill_;
       fill.assign(bin_start_.begin(), bin_start_.end() - 1);
-      for (long p = 0; p < n_; ++p) order_[fill[key_[p]]++] = p;
+      for (long p = 0; p < n_; ++p)
+        if (key_[p] >= 0) order_[fill[key_[p]]++] = p;
     }
     // 2. gather per node from the bins whose stencils reach it
     const long* start = bin_start_.data();
@@ -220,7 +280,9 @@ class CpuRunner final : public Runner {
 #pragma omp parallel for schedule(static)
     for (long I = 0; I < nn; ++I) {
       int Im[D];
-      g.multi(I, Im);
+      const int m = static_cast<int>(I / nm);
+      const SP& spm = params_of(m);
+      g.multi(I - m * nm, Im);
       S acc[1 + 2 * D] = {};
       for (int k = 0; k < n_st; ++k) {
         int B[D], kk = k;
@@ -231,9 +293,9 @@ class CpuRunner final : public Runner {
           if (B[d] < 0) ok = false;
         }
         if (!ok) continue;
-        const long b = g.linear(B);
+        const long b = m * nm + g.linear(B);
         for (long j = start[b]; j < start[b + 1]; ++j) {
-          const P2GParticle<D, S> q = p2g_load<D, S, Model>(pv, order[j], sp_);
+          const P2GParticle<D, S> q = p2g_load<D, S, Model>(pv, order[j], spm);
           S c[1 + 2 * D];
           p2g_contribution<D, S, Shape>(q, Im, g.inv_h, c);
           for (int f = 0; f < 1 + 2 * D; ++f) acc[f] += c[f];
@@ -249,8 +311,12 @@ class CpuRunner final : public Runner {
 
   std::vector<std::vector<std::uint8_t>> masks_;
   std::vector<bool> contacts_;  // per stage: friction or a lifting gate (stage_has_contacts)
-  StepParams<D, S, Model> sp_;
+  SP sp_;
   long n_;
+  long nn_;  // grid nodes of all members
+  std::vector<MemberValues<typename Model::Params, S>> values_;
+  std::vector<std::uint32_t> dead_;
+  std::vector<SP> msp_;  // per member: sp_ with the member's values (kMembers)
   int stage_ = 0;
   double t_ = 0;
   std::vector<S> part_, grid_, dtlim_, trbar_;
@@ -261,9 +327,9 @@ class CpuRunner final : public Runner {
 };
 
 struct MakeCpu {
-  template <int D, class S, class Model, class Shape, bool kB>
+  template <int D, class S, class Model, class Shape, bool kB, bool kM>
   std::unique_ptr<Runner> run(const SceneSetup& su) {
-    return std::make_unique<CpuRunner<D, S, Model, Shape, kB>>(su);
+    return std::make_unique<CpuRunner<D, S, Model, Shape, kB, kM>>(su);
   }
 };
 

@@ -17,8 +17,11 @@ namespace {
 
 struct MakeCuda {
   CudaOptions opt;
-  template <int D, class S, class Model, class Shape, bool kB>
+  template <int D, class S, class Model, class Shape, bool kB, bool kM>
   std::unique_ptr<Runner> run(const SceneSetup& su) {
+    if constexpr (kM) {
+      throw std::runtime_error("ensembles are not built for the CUDA backend yet; use --backend cpu");
+    } else
 #ifndef GRANFLOW_MPM_CUDA_3D
     if constexpr (D == 3) {
       throw std::runtime_error("3D CUDA kernels are not compiled: configure with -DGRANFLOW_MPM_CUDA_3D=ON");

@@ -61,7 +61,27 @@ StepParams<D, S, Model> step_params(const SceneSetup& su) {
   sp.want_dt_limit = 0;
   sp.vol_avg = su.scene.volumetric_averaging ? 1 : 0;
   sp.t = 0;
+  if (su.members > 1) {
+    sp.members.count = su.members;
+    sp.members.particles = su.particles.n / su.members;
+    sp.members.nodes = su.n_nodes;
+    sp.members.mask_stride = su.mask_stride;
+  }
   return sp;
+}
+
+// Per-member parameters of an ensemble (Members::values), in the order of the members.
+template <int D, class S, class Model>
+std::vector<MemberValues<typename Model::Params, S>> member_values(const SceneSetup& su) {
+  std::vector<MemberValues<typename Model::Params, S>> out;
+  const long np = su.particles.n / su.members;
+  for (int k = 0; k < su.members; ++k) {
+    const Material& mat = su.member_materials.at(static_cast<size_t>(k));
+    double mmin = 1e300;
+    for (long i = k * np; i < (k + 1) * np; ++i) mmin = std::min(mmin, su.particles.m[i]);
+    out.push_back({model_params<Model>(mat), S(mat.params.c.rho_p), S(1e-8 * mmin), S(kLightNodeMass * mmin)});
+  }
+  return out;
 }
 
 // HostParticles -> field-major buffer of ParticleLayout<D, kColl>.
@@ -128,9 +148,10 @@ void unpack(const std::vector<S>& a, long n, HostParticles& hp) {
 
 // Output fields from a host copy of the particle buffer. p and q are those of the total
 // stress; eta_c, K_col and T come from Model::diagnostics with D of the last step.
+// Ensembles: `members` gives each particle its member's parameters.
 template <int D, class S, class Model>
-void make_frame(const std::vector<S>& a, long n, const typename Model::Params& mp, Frame& fr, bool diagnostics,
-                const std::vector<long>& subset = {}) {
+void make_frame(const std::vector<S>& a, long n, const typename Model::Params& mp0, Frame& fr, bool diagnostics,
+                const std::vector<long>& subset = {}, const Members<typename Model::Params, S>& members = {}) {
   using Lay = ParticleLayout<D, Model::kCollisional>;
   ParticleView<S> pv{const_cast<S*>(a.data()), n};
   fr.n = n;
@@ -147,6 +168,7 @@ void make_frame(const std::vector<S>& a, long n, const typename Model::Params& m
     for (long i = 0; i < n; ++i) fr.T[i] = pv.f(Lay::SQT, i) * pv.f(Lay::SQT, i);
   using MS = typename Model::Scalar;
   auto point = [&](long i, Diagnostics<MS>& dg, Mat3<S>& sig) {
+    const auto& mp = members.values ? members.values[members.of_particle(i)].mp : mp0;
     const auto st = StateIO<Model>::template load<D>(pv, i);
     Mat3<MS> L = Mat3<MS>::Zero();
     for (int r = 0; r < D; ++r)
@@ -185,11 +207,12 @@ void make_frame(const std::vector<S>& a, long n, const typename Model::Params& m
 }
 
 // Dispatch of the compile-time choices a scene selects. F is a template functor
-// F::template run<D, S, Model, Shape, kBoundary>(setup): S is the scalar of particle and grid
+// F::template run<D, S, Model, Shape, kBoundary, kMembers>(setup): S is the scalar of particle and grid
 // storage and of P2G, grid update and G2P, Model::Scalar that of the constitutive update
 // (solver.precision): fp64 S = double, Model<double>; mixed S = float, Model<double>;
 // fp32 S = float, Model<float>. fp32 and mixed are compiled for scenes with boundary code (every
 // scene but free-fall tests has walls): 8 instantiations each instead of 16, per backend.
+// Ensembles (kMembers) are compiled for 2D scenes with boundary code: 4 per precision.
 template <class S, class MS, bool kUnbounded, class F>
 auto dispatch_scalar(const SceneSetup& su, F& f) {
   using PT = PhaseTransitionModel<MS>;
@@ -197,11 +220,17 @@ auto dispatch_scalar(const SceneSetup& su, F& f) {
   const Scene& sc = su.scene;
   const bool pt = sc.material.model == ModelKind::PhaseTransition;
   const bool quad = sc.shape == ShapeKind::QuadraticBSpline;
-#define GF_MPM_CASE(DIM, B)                                                      \
-  if (pt && quad) return f.template run<DIM, S, PT, QuadraticShape, B>(su);     \
-  if (pt) return f.template run<DIM, S, PT, LinearShape, B>(su);                \
-  if (quad) return f.template run<DIM, S, FR, QuadraticShape, B>(su);           \
-  return f.template run<DIM, S, FR, LinearShape, B>(su);
+#define GF_MPM_CASE_M(DIM, B, M)                                                   \
+  if (pt && quad) return f.template run<DIM, S, PT, QuadraticShape, B, M>(su);    \
+  if (pt) return f.template run<DIM, S, PT, LinearShape, B, M>(su);               \
+  if (quad) return f.template run<DIM, S, FR, QuadraticShape, B, M>(su);          \
+  return f.template run<DIM, S, FR, LinearShape, B, M>(su);
+#define GF_MPM_CASE(DIM, B) GF_MPM_CASE_M(DIM, B, false)
+  if (su.members > 1) {
+    if (sc.dim != 2 || !su.has_boundary)
+      throw SceneError("dimension", "ensembles are compiled for 2D scenes with a wall, a base or a gate");
+    GF_MPM_CASE_M(2, true, true)
+  }
   if (!su.has_boundary) {
     if constexpr (kUnbounded) {
       if (sc.dim == 3) {
@@ -219,6 +248,7 @@ auto dispatch_scalar(const SceneSetup& su, F& f) {
   }
   GF_MPM_CASE(2, true)
 #undef GF_MPM_CASE
+#undef GF_MPM_CASE_M
 }
 
 template <class F>

@@ -52,7 +52,7 @@ GF_HDI long contact_table_offset(long n_nodes) { return (n_nodes + 15) / 16 * 16
 
 template <class S>
 GF_HDI const ContactTable& contact_table(const GridView<S>& gv) {
-  return *reinterpret_cast<const ContactTable*>(gv.mask + contact_table_offset(gv.n));
+  return *reinterpret_cast<const ContactTable*>(gv.mask + contact_table_offset(gv.block > 0 ? gv.block : gv.n));
 }
 GF_HDI const BaseSegment* base_segments(const ContactTable& c) { return reinterpret_cast<const BaseSegment*>(&c + 1); }
 

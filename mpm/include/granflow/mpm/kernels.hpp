@@ -38,6 +38,33 @@ inline constexpr double kSeparatedVoidRatio = 2.9;
 // Bit of the per-particle update record marking a separated point (library flags use bits 0-5).
 inline constexpr std::uint32_t kSeparatedFlag = 1u << 7;
 
+// ---- ensembles ---------------------------------------------------------------------------
+// N members of one scene advance in the same loops and launches (docs/mpm_ensembles.md).
+// Member k owns particles [k P, (k + 1) P) and grid nodes [k G, (k + 1) G) of every field, and
+// its stage block of masks and contact table starts k * mask_stride bytes into the stage's
+// block. Members differ in the values below (per member, on the device for CUDA), in their
+// particles' initial state, and in their masks and tables (friction, gate speed); the grid
+// description, the step and the stages are shared. Sorting keys put member k before k + 1,
+// so a slot's member stays slot / P when particles are reordered.
+template <class Params, class S>
+struct MemberValues {
+  Params mp;
+  S rho_p, mass_eps, mass_floor;
+};
+
+template <class Params, class S>
+struct Members {
+  int count = 1;
+  long particles = 0;  // per member (P)
+  long nodes = 0;      // per member (G)
+  long mask_stride = 0;
+  const MemberValues<Params, S>* values = nullptr;  // count entries
+  const std::uint32_t* dead = nullptr;  // non-zero: the member failed earlier; its points are skipped
+  GF_HDI int of_particle(long p) const { return static_cast<int>(p / particles); }
+  GF_HDI int of_node(long I) const { return static_cast<int>(I / nodes); }
+  GF_HDI bool skipped(int k) const { return dead != nullptr && dead[k] != 0u; }
+};
+
 // Everything a step needs besides the arrays; passed by value to kernels.
 template <int D, class S, class Model>
 struct StepParams {
@@ -56,7 +83,26 @@ struct StepParams {
   int want_dt_limit;  // compute the per-particle stable time step in G2P
   int vol_avg;        // replace tr L by its volume-weighted mean over the particle's bin
   double t;           // time at the start of the step [s] (the lifting gate's edge)
+  Members<typename Model::Params, S> members;  // ensembles only (kMembers instantiations)
 };
+
+// Member k's view of the step parameters and of the grid (node indices local to the member).
+template <int D, class S, class Model>
+GF_HDI void apply_member(StepParams<D, S, Model>& sp, int k) {
+  const MemberValues<typename Model::Params, S>& v = sp.members.values[k];
+  sp.mp = v.mp;
+  sp.rho_p = v.rho_p;
+  sp.mass_eps = v.mass_eps;
+  sp.mass_floor = v.mass_floor;
+}
+template <class S, class P>
+GF_HDI GridView<S> member_grid(const GridView<S>& gv, const Members<P, S>& m, int k) {
+  GridView<S> v = gv;
+  v.a += static_cast<long>(k) * m.nodes;
+  if (v.mask) v.mask += static_cast<long>(k) * m.mask_stride;
+  v.block = m.nodes;
+  return v;
+}
 
 // ---- 1. P2G ------------------------------------------------------------------------------
 

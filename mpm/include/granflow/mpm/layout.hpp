@@ -50,6 +50,9 @@ struct GridView {
   S* a = nullptr;
   long n = 0;
   const std::uint8_t* mask = nullptr;  // bit d set: velocity component d held at zero
+  // Nodes of the block whose masks precede the contact table (boundary.hpp); 0: n. An
+  // ensemble member's view (member_grid) sees its own block of nodes, masks and table.
+  long block = 0;
   GF_HDI S& f(int field, long i) const { return a[static_cast<long>(field) * n + i]; }
 };
 

@@ -38,11 +38,20 @@ struct SceneSetup {
   bool has_boundary = false;
   std::vector<long> tracked;    // particle index per scene.tracks entry
   double dt_estimate = 0;       // h / c_p of the at-rest material (first adaptive step: cfl times this)
+  // Ensembles (make_ensemble_setup, ensemble.hpp): `members` copies of the grid above, each
+  // with its particles (particles holds them member after member, particles.n / members each),
+  // its material and its stage blocks (stage_masks[s] holds them mask_stride bytes apart);
+  // tracked indices are those of member 0. A single run has members = 1 and none of these.
+  int members = 1;
+  std::vector<Material> member_materials;
+  long mask_stride = 0;
+  std::vector<char> stage_contacts;  // per stage: the members' blocks hold a ContactTable
 };
 
 // The stage's block holds a ContactTable after its masks (friction or a lifting gate): its
 // grid update needs the kContacts instantiation of grid_update_node.
 inline bool stage_has_contacts(const SceneSetup& su, int stage) {
+  if (!su.stage_contacts.empty()) return su.stage_contacts[stage] != 0;
   return su.stage_masks[stage].size() > static_cast<size_t>(su.n_nodes);
 }
 
@@ -129,6 +138,14 @@ struct Frame {
   std::vector<PointDiagnostics> subset;  // light frames: one per requested particle
 };
 
+// A member of an ensemble that failed in the last step: its first bad particle (index of the
+// set-up's order) and status (kernels.hpp Status).
+struct MemberFailure {
+  int member = 0;
+  long particle = -1;
+  std::uint32_t status = 0;
+};
+
 class Runner {
  public:
   virtual ~Runner() = default;
@@ -155,6 +172,10 @@ class Runner {
   virtual std::string config() const { return ""; }
   virtual long particles() const = 0;
   virtual long nodes() const = 0;
+  // Ensembles: after a failed step or span, the members that failed in its last step, each
+  // with its first bad particle. They are retired: skipped by every later step, their state
+  // left as the failed step made it. The other members' last step is complete.
+  virtual std::vector<MemberFailure> retire_failed_members() { return {}; }
 };
 
 inline SpanResult Runner::advance_span(const Span& s) {
