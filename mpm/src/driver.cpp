@@ -134,8 +134,6 @@ std::vector<std::pair<double, double>> free_surface(const Frame& fr, const Scene
   return out;
 }
 
-namespace {
-
 ConsolidationCheck check_consolidation(const Frame& fr, const SceneSetup& su) {
   // Middle half of the first body, depth bins of one grid cell; compare the mean -sigma_yy
   // with rho g depth where rho is the current bulk density integrated from the top.
@@ -178,6 +176,8 @@ ConsolidationCheck check_consolidation(const Frame& fr, const SceneSetup& su) {
   return c;
 }
 
+namespace {
+
 // Series and profiles: synced with the checkpoint or the manifest, like the frames.
 void write_text(const std::string& path, const std::string& text) {
   io::write_file(path, text, io::Durability::Buffered);
@@ -202,23 +202,38 @@ UpdateStats operator+(UpdateStats a, const UpdateStats& b) {
   return a;
 }
 
-void write_series_csv(const std::string& dir, const Scene& sc, const RunSummary& sum) {
+}  // namespace
+
+void write_series_csv(const std::string& dir, const Scene& sc, const std::vector<SeriesRow>& series,
+                      const std::vector<TrackRow>& tracks) {
   std::ostringstream a;
   a.precision(8);
   a << "t,t_flow,stage,runout,height,max_speed,kinetic_energy,mean_T,max_T\n";
-  for (const auto& r : sum.series)
+  for (const auto& r : series)
     a << r.t << ',' << r.t_flow << ',' << r.stage << ',' << r.m.runout << ',' << r.m.height << ',' << r.m.max_speed
       << ',' << r.m.kinetic_energy << ',' << r.m.mean_T << ',' << r.m.max_T << '\n';
   write_text(dir + "/runout.csv", a.str());
   std::ostringstream b;
   b.precision(8);
   b << "t,t_flow,name,x,y,vx,vy,p,q,eps_pd,T,eta_c,K_col\n";
-  for (const auto& r : sum.tracks)
+  for (const auto& r : tracks)
     b << r.t << ',' << r.t_flow << ',' << sc.tracks[r.track].name << ',' << r.x << ',' << r.y << ',' << r.vx << ','
       << r.vy << ',' << r.p << ',' << r.q << ',' << r.eps_pd << ',' << r.T << ',' << r.eta_c << ',' << r.K_col << '\n';
   write_text(dir + "/tracked.csv", b.str());
 }
 
+void write_profile_csv(const std::string& path, const std::vector<std::pair<double, double>>& surface) {
+  std::ostringstream c;
+  c.precision(8);
+  c << "x,surface_y\n";
+  for (const auto& [x, y] : surface) c << x << ',' << y << '\n';
+  write_text(path, c.str());
+}
+
+namespace {
+void write_series_csv(const std::string& dir, const Scene& sc, const RunSummary& sum) {
+  write_series_csv(dir, sc, sum.series, sum.tracks);
+}
 }  // namespace
 
 // Where the loop is, for the message of a write that fails.
@@ -477,13 +492,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
 
   if (files) {
     write_series_csv(opt.out_dir, sc, sum);
-    if (!sum.interrupted) {
-      std::ostringstream c;
-      c.precision(8);
-      c << "x,surface_y\n";
-      for (const auto& [x, y] : free_surface(sum.ok ? fr : last_good, su)) c << x << ',' << y << '\n';
-      write_text(opt.out_dir + "/profile_final.csv", c.str());
-    }
+    if (!sum.interrupted) write_profile_csv(opt.out_dir + "/profile_final.csv", free_surface(sum.ok ? fr : last_good, su));
     if (complete && t >= t_total * (1 - 1e-12)) {  // nothing left to continue
       std::error_code ec;
       std::filesystem::remove(ckpt_path, ec);

@@ -52,6 +52,9 @@ struct ConsolidationCheck {
   double base_sigma_v = 0, base_rho_g_h = 0;
 };
 
+// From a full frame at the end of the first stage.
+ConsolidationCheck check_consolidation(const Frame& fr, const SceneSetup& su);
+
 struct RunSummary {
   bool ok = true;
   std::string message;
@@ -70,6 +73,12 @@ struct RunSummary {
 };
 
 RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt);
+
+// The CSVs a run writes: dir/runout.csv and dir/tracked.csv (docs/mpm.md lists the columns),
+// and a free surface (x, surface_y).
+void write_series_csv(const std::string& dir, const Scene& sc, const std::vector<SeriesRow>& series,
+                      const std::vector<TrackRow>& tracks);
+void write_profile_csv(const std::string& path, const std::vector<std::pair<double, double>>& surface);
 
 // Throughput of the first stage after a warm-up (granflow bench mpm).
 // The timed steps run as one span (or step by step, a host round-trip each: the old loop);
