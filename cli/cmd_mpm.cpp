@@ -21,6 +21,7 @@
 #include <granflow/mpm/memory.hpp>
 
 #include "commands.hpp"
+#include "mpm_common.hpp"
 #include <granflow/io/input_error.hpp>
 #include <granflow/io/output.hpp>
 #include <granflow/io/parameter_set.hpp>
@@ -29,11 +30,8 @@
 
 namespace granflow::cli {
 
-namespace {
-
 namespace fs = std::filesystem;
 
-// precision: "" keeps the scene's solver.precision; fp64 | mixed | fp32 overrides it.
 mpm::SceneSetup setup_from_file(const std::string& file, const mpm::SceneOverrides& overrides,
                                 const std::string& precision) {
   mpm::Scene sc = mpm::load_scene(file, overrides);
@@ -41,6 +39,7 @@ mpm::SceneSetup setup_from_file(const std::string& file, const mpm::SceneOverrid
   return mpm::make_setup_for_file(sc);
 }
 
+namespace {
 // What a checkpoint must have been written for: the scene file's bytes, the parameter set's
 // values (as granflow writes them, so comments and layout do not count; --params picks the
 // set) and the --set overrides as given.
@@ -53,8 +52,8 @@ std::uint64_t scene_hash(const mpm::Scene& sc) {
   for (const auto& a : sc.overrides) hash = mpm::fnv1a("--set " + a, hash);
   return hash;
 }
+}  // namespace
 
-// A word as the shell reads it back: quoted unless it is plain.
 std::string shell_word(const std::string& w) {
   if (!w.empty() && w.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-+=.,/:@%") ==
                         std::string::npos)
@@ -64,7 +63,6 @@ std::string shell_word(const std::string& w) {
   return q + "'";
 }
 
-// --params and --set as given, for a command line to print.
 std::string override_args(const mpm::SceneOverrides& ov) {
   std::string s;
   if (!ov.params.empty()) s += " --params " + shell_word(ov.params);
@@ -72,7 +70,6 @@ std::string override_args(const mpm::SceneOverrides& ov) {
   return s;
 }
 
-// --params and --set: the same options for granflow mpm and granflow bench mpm.
 void add_override_options(CLI::App* cmd, mpm::SceneOverrides& ov) {
   cmd->add_option("--params", ov.params,
                   "parameter set instead of the scene's material.parameters: a name under data/params or a TOML "
@@ -87,71 +84,38 @@ void add_override_options(CLI::App* cmd, mpm::SceneOverrides& ov) {
       ->allow_extra_args(false);  // one value per --set: the scene argument is never taken as one
 }
 
-// Set by SIGINT/SIGTERM; the time loop polls it after every step.
-volatile std::sig_atomic_t g_signal = 0;
-void on_signal(int sig) { g_signal = sig; }
-
-// Installs the handlers for its lifetime. SA_RESETHAND: a second Ctrl-C stops at once (the last
-// complete checkpoint stays valid).
-class SignalGuard {
- public:
-  SignalGuard() {
-    g_signal = 0;
-    struct sigaction sa {};
-    sa.sa_handler = on_signal;
-    sigemptyset(&sa.sa_mask);
-    sa.sa_flags = SA_RESTART | SA_RESETHAND;
-    sigaction(SIGINT, &sa, &old_int_);
-    sigaction(SIGTERM, &sa, &old_term_);
-  }
-  ~SignalGuard() {
-    sigaction(SIGINT, &old_int_, nullptr);
-    sigaction(SIGTERM, &old_term_, nullptr);
-  }
-  SignalGuard(const SignalGuard&) = delete;
-  SignalGuard& operator=(const SignalGuard&) = delete;
-
- private:
-  struct sigaction old_int_ {}, old_term_ {};
-};
-
-// The CUDA backend's options as given on the command line (name -> value, unset ones empty).
-struct CudaFlags {
-  std::string graphs, graph_steps, sort, p2g, g2p_block, g2p_regcap, g2p_split;
-  mpm::CudaOptions options() const {
-    mpm::CudaOptions o;
-    const std::pair<const char*, const std::string*> all[] = {{"graphs", &graphs}, {"graph-steps", &graph_steps},
-                                                              {"sort", &sort},     {"p2g", &p2g},
-                                                              {"g2p-block", &g2p_block}, {"g2p-regcap", &g2p_regcap},
-                                                              {"g2p-split", &g2p_split}};
-    for (const auto& [name, value] : all)
-      if (!value->empty() && !mpm::set_cuda_option(o, name, *value))
-        throw io::InputError(std::string("--") + name + ": invalid value '" + *value + "'");
-    return o;
-  }
-  void add(CLI::App* cmd) {
-    cmd->add_option("--graphs", graphs, "CUDA: replay captured chunks of steps as graphs (on|off; default on)");
-    cmd->add_option("--graph-steps", graph_steps, "CUDA: longest captured chunk in steps (default 32)");
-    cmd->add_option("--sort", sort, "CUDA: reorder particles by cell every N steps (0: never; default 32)");
-    cmd->add_option("--p2g", p2g, "CUDA: P2G scatter atomic|warp|tile (default warp)");
-    cmd->add_option("--g2p-block", g2p_block, "CUDA: threads per block of G2P + constitutive (default 128)");
-    cmd->add_option("--g2p-regcap", g2p_regcap, "CUDA: G2P + constitutive with at most 168 registers (on|off)");
-    cmd->add_option("--g2p-split", g2p_split,
-                    "CUDA: G2P in two passes, elastic updates then the deferred plastic returns (auto|on|off; default auto: from 2 waves of the fused kernel)");
-  }
-};
-
 std::unique_ptr<mpm::Runner> make_runner(const mpm::SceneSetup& su, const std::string& backend,
                                          const CudaFlags& flags) {
   const mpm::CudaOptions co = flags.options();  // checked for either backend
   return backend == "cuda" ? mpm::make_cuda_runner(su, co) : mpm::make_cpu_runner(su);
 }
 
-std::string locate_plot_script() {
-  for (const std::string& p : {std::string("scripts/plot_mpm.py"), io::data_directory() + "/../scripts/plot_mpm.py"})
+std::string locate_script(const std::string& name) {
+  for (const std::string& p : {"scripts/" + name, io::data_directory() + "/../scripts/" + name})
     if (std::filesystem::exists(p)) return p;
   return "";
 }
+
+volatile std::sig_atomic_t g_signal = 0;
+namespace {
+void on_signal(int sig) { g_signal = sig; }
+}  // namespace
+
+SignalGuard::SignalGuard() {
+  g_signal = 0;
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART | SA_RESETHAND;
+  sigaction(SIGINT, &sa, &old_int_);
+  sigaction(SIGTERM, &sa, &old_term_);
+}
+SignalGuard::~SignalGuard() {
+  sigaction(SIGINT, &old_int_, nullptr);
+  sigaction(SIGTERM, &old_term_, nullptr);
+}
+
+namespace {
 
 // Time per step by phase (timed steps) and on the device (spans), and the share of the split
 // G2P's plastic pass: the figures that scripts/gpu.sh reads from a run's summary.
@@ -296,7 +260,7 @@ void run_mpm(const MpmOptions& o) {
   if (g_signal != 0) {
     std::fprintf(stderr, "PNG snapshots skipped: interrupted after the run had completed\n");
   } else if (!o.no_png) {
-    const std::string script = locate_plot_script();
+    const std::string script = locate_script("plot_mpm.py");
     if (script.empty()) {
       std::fprintf(stderr, "PNG snapshots skipped: scripts/plot_mpm.py not found\n");
     } else {

@@ -14,6 +14,7 @@ void register_element(CLI::App& app);
 void register_figures(CLI::App& app);
 void register_calibrate(CLI::App& app);
 void register_mpm(CLI::App& app);
+void register_ensemble(CLI::App& app);
 void register_bench(CLI::App& app);
 
 }  // namespace granflow::cli

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   granflow::cli::register_calibrate(app);
 #endif
   granflow::cli::register_mpm(app);
+  granflow::cli::register_ensemble(app);
   granflow::cli::register_bench(app);
   try {
     app.parse(argc, argv);

@@ -40,6 +40,10 @@ bool cuda_backend_available() {
   return cudaGetDeviceCount(&n) == cudaSuccess && n > 0;
 }
 
+bool cuda_memory_info(std::size_t& free, std::size_t& total) {
+  return cuda_backend_available() && cudaMemGetInfo(&free, &total) == cudaSuccess;
+}
+
 std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& su, const CudaOptions& options) {
   if (!cuda_backend_available()) throw std::runtime_error("no CUDA device found; use --backend cpu");
   return detail::dispatch(su, MakeCuda{options});

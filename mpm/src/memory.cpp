@@ -22,12 +22,13 @@ MemoryEstimate estimate_memory(const SceneSetup& su) {
   const bool coll = sc.material.model == ModelKind::PhaseTransition;
   const int nf = sc.dim == 3 ? particle_fields<3>(coll) : particle_fields<2>(coll);
   const int gf = sc.dim == 3 ? GridLayout<3>::N : GridLayout<2>::N;
-  const double n = double(su.particles.n), nodes = double(su.n_nodes);
+  const double n = double(su.particles.n), nodes = double(su.n_nodes) * su.members;  // all members
   const double S = m.scalar_bytes;
   // fields, step limit (S), status and update record (uint32 each), bin key (long)
   m.particle_bytes = n * (nf * S + S + 2 * sizeof(std::uint32_t) + sizeof(long));
   // fields, two bin sums (volumetric averaging), one mask byte per node and stage
-  m.grid_bytes = nodes * (gf * S + 2 * S) + (su.has_boundary ? nodes * double(sc.stages.size()) : 0.0);
+  m.grid_bytes = nodes * (gf * S + 2 * S);
+  for (const auto& block : su.stage_masks) m.grid_bytes += double(block.size());
   const double host_fields = 3.0 * sc.dim + 1 + 6 + 6 + sc.dim * sc.dim + 3;  // x, v, m, sig, sigf, L, eps, e, s
   m.host_bytes = n * host_fields * sizeof(double);
   return m;

@@ -3,6 +3,7 @@
 // one compiled combination (dimension, scalar, model, shape, boundary code on/off).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -257,5 +258,7 @@ std::unique_ptr<Runner> make_cpu_runner(const SceneSetup& setup);
 // Defined by the CUDA backend library; throws when CUDA was not built or no device exists.
 std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& setup, const CudaOptions& options = {});
 bool cuda_backend_available();
+// Free and total memory of the current CUDA device; false without CUDA or a device.
+bool cuda_memory_info(std::size_t& free, std::size_t& total);
 
 }  // namespace granflow::mpm

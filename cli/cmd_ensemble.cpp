@@ -1,0 +1,214 @@
+// granflow ensemble SCENE DESIGN: the members of a design (mpm/ensemble_design.hpp) advanced
+// together by one runner; per member the series and final profile granflow mpm writes, a
+// summary CSV and PNGs of the final profiles and of each summary quantity against each
+// varied value (scripts/plot_ensemble.py).
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <granflow/io/output.hpp>
+#include <granflow/io/run_folder.hpp>
+#include <granflow/mpm/checkpoint.hpp>
+#include <granflow/mpm/ensemble.hpp>
+#include <granflow/mpm/ensemble_design.hpp>
+#include <granflow/mpm/memory.hpp>
+
+#include "commands.hpp"
+#include "mpm_common.hpp"
+
+namespace granflow::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct EnsembleCmd {
+  std::string scene, design, out, backend = "cpu", precision;
+  bool force = false, no_png = false, quiet = false, frames = false;
+  long span = 10000;
+  CudaFlags cuda;
+  mpm::SceneOverrides overrides;
+};
+
+// Memory the platform has for the runner's buffers: the GPU's free memory, or the host's
+// available memory (MemAvailable) for the CPU twin. 0: unknown.
+double available_bytes(const std::string& backend) {
+  if (backend == "cuda") {
+    std::size_t free = 0, total = 0;
+    return mpm::cuda_memory_info(free, total) ? double(free) : 0.0;
+  }
+  std::ifstream in("/proc/meminfo");
+  std::string key;
+  double kib = 0;
+  std::string unit;
+  while (in >> key >> kib >> unit)
+    if (key == "MemAvailable:") return kib * 1024.0;
+  return 0.0;
+}
+
+// Members' scenes: the design's values over the command line's --set. Each varied key is first
+// tried alone on member 0's value, so that a key the scene does not have is named with the
+// design file's line.
+std::vector<mpm::SceneSetup> member_setups(const EnsembleCmd& o, const mpm::EnsembleDesign& d) {
+  for (size_t j = 0; j < d.vary.size(); ++j) {
+    mpm::SceneOverrides ov = o.overrides;
+    ov.sets.push_back(mpm::member_overrides(d, 0)[j]);
+    try {
+      mpm::load_scene(o.scene, ov);
+    } catch (const std::exception& e) {
+      throw io::InputError(io::where(d.file, d.vary[j].line) + "vary key '" + d.vary[j].key + "': " + e.what());
+    }
+  }
+  std::vector<mpm::SceneSetup> out;
+  for (long k = 0; k < d.members; ++k) {
+    mpm::SceneOverrides ov = o.overrides;
+    for (const std::string& s : mpm::member_overrides(d, k)) ov.sets.push_back(s);
+    try {
+      out.push_back(setup_from_file(o.scene, ov, o.precision));
+    } catch (const io::InputError& e) {
+      std::string values;
+      for (const std::string& s : mpm::member_overrides(d, k)) values += " " + s;
+      throw io::InputError(io::where(d.file) + "member " + std::to_string(k) + " (" + values.substr(1) +
+                           "): " + e.what());
+    }
+  }
+  return out;
+}
+
+std::string csv_quote(const std::string& s) {
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+std::string summary_csv(const mpm::EnsembleDesign& d, const mpm::Scene& sc, const mpm::EnsembleSummary& s) {
+  std::ostringstream os;
+  os.precision(10);
+  os << "member";
+  for (const auto& v : d.vary) os << ',' << v.key;
+  os << ",status,runout,height";
+  std::vector<double> times = sc.output.times;
+  std::sort(times.begin(), times.end());
+  for (double t : times) os << ",runout_t" << t;
+  os << ",max_speed,steps,t_end,wall_s,message\n";
+  for (size_t k = 0; k < s.members.size(); ++k) {
+    const mpm::MemberSummary& m = s.members[k];
+    os << k;
+    for (double v : d.values[k]) os << ',' << v;
+    os << ',' << (m.ok ? "ok" : "failed") << ',' << m.final.runout << ',' << m.final.height;
+    for (double r : m.runout_at) {
+      os << ',';
+      if (std::isfinite(r)) os << r;
+    }
+    os << ',' << m.max_speed << ',' << m.steps << ',' << m.t_end << ',' << m.wall_s << ',' << csv_quote(m.message)
+       << '\n';
+  }
+  return os.str();
+}
+
+void run_ensemble_cmd(const EnsembleCmd& o) {
+  const mpm::EnsembleDesign design = mpm::load_design(o.design);
+  const std::vector<mpm::SceneSetup> ms = member_setups(o, design);
+  mpm::SceneSetup su;
+  try {
+    su = mpm::make_ensemble_setup(ms);
+  } catch (const mpm::SceneError& e) {
+    throw io::InputError(io::where(o.design) + e.what());
+  }
+  const mpm::MemoryEstimate mem = mpm::estimate_memory(su);
+  const double need = o.backend == "cuda" ? mem.device_bytes() : mem.device_bytes() + mem.host_bytes;
+  const double have = available_bytes(o.backend);
+  if (have > 0 && need > 0.9 * have) {
+    const double per = need / su.members;
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "%d members need %.2f GiB (%.3f GiB each) and the %s has %.2f GiB available: at most %ld members "
+                  "fit; split the design or use a coarser grid",
+                  su.members, need / 1073741824.0, per / 1073741824.0, o.backend == "cuda" ? "GPU" : "host",
+                  have / 1073741824.0, static_cast<long>(0.9 * have / per));
+    throw io::InputError(io::where(o.design) + buf);
+  }
+  std::string out = o.out;
+  if (out.empty()) out = "ensemble_out/" + fs::path(o.design).stem().string();
+  io::RunFolder folder(out, o.force ? io::FolderUse::Force : io::FolderUse::Fresh, mpm::kCheckpointFile);
+  auto runner = make_runner(su, o.backend, o.cuda);
+  const mpm::Scene& sc = su.scene;
+  std::fprintf(stderr, "granflow ensemble: %s, %ld members (%s design of %s)\n  %ld particles, %ld grid nodes in all, %s; %s\n",
+               sc.name.c_str(), design.members, design.method.c_str(), o.design.c_str(), runner->particles(),
+               runner->nodes(), runner->device().c_str(), mpm::memory_line(su).c_str());
+  mpm::EnsembleOptions eo;
+  eo.out_dir = out;
+  eo.progress = !o.quiet;
+  eo.frames = o.frames;
+  eo.max_span = o.span;
+  eo.interrupt = &g_signal;
+  mpm::EnsembleSummary s;
+  {
+    SignalGuard guard;
+    s = mpm::run_ensemble(su, ms, *runner, eo);
+  }
+  io::write_file(out + "/summary.csv", summary_csv(design, sc, s));
+  {
+    std::ifstream in(o.design, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    io::write_file(out + "/design.toml", text.str());
+  }
+  long failed = 0;
+  for (const auto& m : s.members) failed += m.ok ? 0 : 1;
+  const double updates = double(runner->particles()) * double(s.steps);
+  std::printf("scene: %s\nmembers: %ld (%ld failed)\nparticles: %ld\nsteps: %ld\nsimulated: %.6g s\nwall: %.3f s\n",
+              sc.name.c_str(), design.members, failed, runner->particles(), s.steps, s.t_end, s.wall_s);
+  std::printf("particle-updates/s: %.4g\nwall per step: %.2f us\n", s.wall_s > 0 ? updates / s.wall_s : 0.0,
+              s.steps > 0 ? 1e6 * s.wall_s / s.steps : 0.0);
+  for (size_t k = 0; k < s.members.size(); ++k)
+    if (!s.members[k].ok) std::printf("member %zu failed: %s\n", k, s.members[k].message.c_str());
+  std::printf("output: %s (summary.csv, member_NNNN/{runout,tracked,profile_final}.csv)\n", out.c_str());
+  if (s.interrupted) {
+    std::fprintf(stderr, "granflow: interrupted at t = %.6g s; wrote the series so far\n", s.t_end);
+    throw ExitStatus{128 + s.interrupted};
+  }
+  if (!o.no_png) {
+    const std::string script = locate_script("plot_ensemble.py");
+    if (script.empty()) {
+      std::fprintf(stderr, "PNGs skipped: scripts/plot_ensemble.py not found\n");
+    } else {
+      const std::string py = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+      const std::string cmd = py + " " + shell_word(script) + " " + shell_word(out);
+      if (std::system(cmd.c_str()) != 0) {
+        std::error_code ec;
+        fs::remove_all(out + "/png", ec);
+        std::fprintf(stderr, "PNGs skipped: '%s' failed\n", cmd.c_str());
+      }
+    }
+  }
+  folder.complete(failed == 0 ? "complete" : "complete; " + std::to_string(failed) + " members failed (summary.csv)");
+}
+
+}  // namespace
+
+void register_ensemble(CLI::App& app) {
+  auto o = std::make_shared<EnsembleCmd>();
+  auto* cmd = app.add_subcommand("ensemble", "Run the members of a design over one MPM scene together");
+  cmd->add_option("scene", o->scene, "scene file (mpm/scenes/*.toml)")->required()->check(CLI::ExistingFile);
+  cmd->add_option("design", o->design, "design file (docs/mpm_ensemble_design.md)")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--out", o->out, "output directory (default ensemble_out/<design>)");
+  cmd->add_flag("--force", o->force, "replace the output folder of an earlier granflow run");
+  cmd->add_option("--backend", o->backend, "cpu (OpenMP twin) or cuda")->check(CLI::IsMember({"cpu", "cuda"}));
+  cmd->add_option("--precision", o->precision, "fp64, mixed or fp32: overrides the scene's solver.precision")
+      ->check(CLI::IsMember({"fp64", "mixed", "fp32"}));
+  add_override_options(cmd, o->overrides);
+  cmd->add_flag("--frames", o->frames, "VTU frames per member at the scene's output times (default: none)");
+  cmd->add_flag("--no-png", o->no_png, "do not call scripts/plot_ensemble.py");
+  cmd->add_flag("--quiet", o->quiet, "no progress line");
+  cmd->add_option("--span", o->span, "most steps queued without a host round-trip")->check(CLI::PositiveNumber);
+  o->cuda.add(cmd);
+  cmd->callback([o] { run_ensemble_cmd(*o); });
+}
+
+}  // namespace granflow::cli
