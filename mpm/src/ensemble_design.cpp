@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
-#include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -334,10 +334,11 @@ std::vector<std::string> member_overrides(const EnsembleDesign& d, long member) 
                             std::to_string(d.values.size()));
   std::vector<std::string> out;
   for (std::size_t j = 0; j < d.vary.size(); ++j) {
-    char buf[64];
-    // as printf("%.17g") in the C locale: 17 significant digits read back to the same double
-    const auto r = std::to_chars(buf, buf + sizeof buf, d.values[member][j], std::chars_format::general, 17);
-    out.push_back(d.vary[j].key + "=" + std::string(buf, r.ptr));
+    char buf[40];
+    // 17 significant digits read back to the same double (snprintf, not std::to_chars: the GPU
+    // machine's host compiler may predate floating-point to_chars; the program keeps the C locale)
+    std::snprintf(buf, sizeof buf, "%.17g", d.values[member][j]);
+    out.push_back(d.vary[j].key + "=" + buf);
   }
   return out;
 }
