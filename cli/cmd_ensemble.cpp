@@ -51,10 +51,9 @@ double available_bytes(const std::string& backend) {
   return 0.0;
 }
 
-// Members' scenes: the design's values over the command line's --set. Each varied key is first
-// tried alone on member 0's value, so that a key the scene does not have is named with the
-// design file's line.
-std::vector<mpm::SceneSetup> member_setups(const EnsembleCmd& o, const mpm::EnsembleDesign& d) {
+// Each varied key tried alone on member 0's value, so that a key the scene does not have is
+// named with the design file's line.
+void check_vary_keys(const EnsembleCmd& o, const mpm::EnsembleDesign& d) {
   for (size_t j = 0; j < d.vary.size(); ++j) {
     mpm::SceneOverrides ov = o.overrides;
     ov.sets.push_back(mpm::member_overrides(d, 0)[j]);
@@ -64,20 +63,38 @@ std::vector<mpm::SceneSetup> member_setups(const EnsembleCmd& o, const mpm::Ense
       throw io::InputError(io::where(d.file, d.vary[j].line) + "vary key '" + d.vary[j].key + "': " + e.what());
     }
   }
-  std::vector<mpm::SceneSetup> out;
-  for (long k = 0; k < d.members; ++k) {
-    mpm::SceneOverrides ov = o.overrides;
-    for (const std::string& s : mpm::member_overrides(d, k)) ov.sets.push_back(s);
-    try {
-      out.push_back(setup_from_file(o.scene, ov, o.precision));
-    } catch (const io::InputError& e) {
-      std::string values;
-      for (const std::string& s : mpm::member_overrides(d, k)) values += " " + s;
-      throw io::InputError(io::where(d.file) + "member " + std::to_string(k) + " (" + values.substr(1) +
-                           "): " + e.what());
-    }
+}
+
+// Member k's scene: the design's values over the command line's --set.
+mpm::SceneSetup member_setup(const EnsembleCmd& o, const mpm::EnsembleDesign& d, long k) {
+  mpm::SceneOverrides ov = o.overrides;
+  for (const std::string& s : mpm::member_overrides(d, k)) ov.sets.push_back(s);
+  try {
+    return setup_from_file(o.scene, ov, o.precision);
+  } catch (const io::InputError& e) {
+    std::string values;
+    for (const std::string& s : mpm::member_overrides(d, k)) values += " " + s;
+    throw io::InputError(io::where(d.file) + "member " + std::to_string(k) + " (" + values.substr(1) + "): " +
+                         e.what());
   }
-  return out;
+}
+
+// Refuses, before the other members are set up, a design whose runner buffers (all members) do
+// not fit 90 % of the GPU's free memory (CUDA) or of the host's available memory (CPU twin,
+// with the members' set-ups, which the host holds twice: per member and combined).
+void check_memory(const EnsembleCmd& o, const mpm::EnsembleDesign& d, const mpm::SceneSetup& first) {
+  const mpm::MemoryEstimate m = mpm::estimate_memory(first);
+  const bool gpu = o.backend == "cuda";
+  const double per = gpu ? m.device_bytes() : m.device_bytes() + 2 * m.host_bytes;
+  const double need = per * double(d.members), have = available_bytes(o.backend);
+  if (!(have > 0) || need <= 0.9 * have) return;
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "%ld members need %.2f GiB (%.4f GiB each) and the %s has %.2f GiB available: at most %ld members "
+                "fit; lower design.members or use a coarser grid",
+                d.members, need / 1073741824.0, per / 1073741824.0, gpu ? "GPU" : "host", have / 1073741824.0,
+                static_cast<long>(0.9 * have / per));
+  throw io::InputError(io::where(d.file) + buf);
 }
 
 std::string csv_quote(const std::string& s) {
@@ -113,25 +130,16 @@ std::string summary_csv(const mpm::EnsembleDesign& d, const mpm::Scene& sc, cons
 
 void run_ensemble_cmd(const EnsembleCmd& o) {
   const mpm::EnsembleDesign design = mpm::load_design(o.design);
-  const std::vector<mpm::SceneSetup> ms = member_setups(o, design);
+  check_vary_keys(o, design);
+  std::vector<mpm::SceneSetup> ms;
+  ms.push_back(member_setup(o, design, 0));
+  check_memory(o, design, ms[0]);
+  for (long k = 1; k < design.members; ++k) ms.push_back(member_setup(o, design, k));
   mpm::SceneSetup su;
   try {
     su = mpm::make_ensemble_setup(ms);
   } catch (const mpm::SceneError& e) {
     throw io::InputError(io::where(o.design) + e.what());
-  }
-  const mpm::MemoryEstimate mem = mpm::estimate_memory(su);
-  const double need = o.backend == "cuda" ? mem.device_bytes() : mem.device_bytes() + mem.host_bytes;
-  const double have = available_bytes(o.backend);
-  if (have > 0 && need > 0.9 * have) {
-    const double per = need / su.members;
-    char buf[320];
-    std::snprintf(buf, sizeof buf,
-                  "%d members need %.2f GiB (%.3f GiB each) and the %s has %.2f GiB available: at most %ld members "
-                  "fit; split the design or use a coarser grid",
-                  su.members, need / 1073741824.0, per / 1073741824.0, o.backend == "cuda" ? "GPU" : "host",
-                  have / 1073741824.0, static_cast<long>(0.9 * have / per));
-    throw io::InputError(io::where(o.design) + buf);
   }
   std::string out = o.out;
   if (out.empty()) out = "ensemble_out/" + fs::path(o.design).stem().string();

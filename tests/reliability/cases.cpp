@@ -141,6 +141,17 @@ std::string flip_byte(std::string s, size_t at) {
 }
 constexpr int kInput = 2;  // granflow's exit code for input errors
 
+// A design file of 4 Halton members varying one key ([[vary]] at line 4, the range at line 6).
+std::string design(const std::string& key, const std::string& range_line) {
+  return "[design]\nmethod = \"halton\"\nmembers = 4\n[[vary]]\nkey = \"" + key + "\"\n" + range_line + "\n";
+}
+const std::vector<std::string> kEns = {"ensemble", "scene.toml", "d.toml", "--out", "o", "--no-png", "--quiet"};
+std::vector<std::string> ens_with(std::vector<std::string> extra) {
+  std::vector<std::string> a = kEns;
+  a.insert(a.end(), extra.begin(), extra.end());
+  return a;
+}
+
 }  // namespace
 
 Files default_files() {
@@ -321,6 +332,13 @@ std::vector<Case> all_cases() {
       {"mpm_set_dt_above_stability_limit", {}, mpm_with({"--set", "time.dt=1e-2"}), kInput, {"scene.toml: --set 'time.dt=1e-2': 'time.dt'", "above the stability limit"}},
       {"mpm_set_parameter_out_of_range", {}, mpm_with({"--set", "frictional.phi_c_deg=95"}), kInput, {"--set 'frictional.phi_c_deg=95': 'frictional.phi_c_deg': must be in (0, 90), got 95"}},
       {"mpm_params_unknown", {}, mpm_with({"--params", "column_colapse"}), kInput, {"--params 'column_colapse'", "no parameter set of that name", "column_collapse"}},
+      // ---- ensemble design files (granflow ensemble SCENE DESIGN) ----------------------------
+      {"ens_unknown_vary_key", {{"d.toml", design("frictional.phi_cdeg", "range = [18.0, 22.0]")}}, kEns, kInput, {"d.toml:4", "vary key 'frictional.phi_cdeg'", "unknown key 'frictional.phi_cdeg'", "phi_c_deg"}},
+      {"ens_empty_range", {{"d.toml", design("frictional.phi_c_deg", "range = [22.0, 18.0]")}}, kEns, kInput, {"d.toml:6", "range"}},
+      {"ens_zero_members", {{"d.toml", edit(design("frictional.phi_c_deg", "range = [18.0, 22.0]"), "members = 4", "members = 0")}}, kEns, kInput, {"d.toml:3", "design.members"}},
+      {"ens_duplicate_key", {{"d.toml", design("frictional.phi_c_deg", "range = [18.0, 22.0]") + "[[vary]]\nkey = \"frictional.phi_c_deg\"\nrange = [19.0, 20.0]\n"}}, kEns, kInput, {"d.toml:8", "'frictional.phi_c_deg' is varied twice", "at line 4"}},
+      {"ens_too_large_for_memory", {{"d.toml", edit(design("frictional.phi_c_deg", "range = [18.0, 22.0]"), "members = 4", "members = 100000")}}, ens_with({"--set", "grid.h=0.001", "--set", "time.dt=1e-5"}), kInput, {"d.toml: 100000 members need", "at most", "members fit"}},
+      {"ens_members_differ_in_grid", {{"d.toml", "[design]\nmethod = \"list\"\n[[vary]]\nkey = \"grid.h\"\nvalues = [0.02, 0.025]\n"}}, kEns, kInput, {"d.toml: grid: member 1 differs from member 0 in the grid", "members may differ in"}},
       {"bench_mpm_set_unknown_table", {}, {"bench", "mpm", "scene.toml", "--set", "gird.h=0.01"}, kInput, {"scene.toml: --set 'gird.h=0.01': unknown key 'gird'"}},
   };
 }
