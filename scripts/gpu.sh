@@ -20,6 +20,10 @@
 #   profile        Nsight Compute of the 1 mm column's kernels (needs ncu)
 #   sanitize       compute-sanitizer memcheck and racecheck of the CI scenes and CUDA option variants
 #   3d             the 3D slab (8e6 points) benchmark: precisions and CUDA options
+#   ensemble       granflow ensemble against sequential single runs of the same members: 64
+#                  members of the 5 mm column (fp32, fp64), 16 of the 1 mm column (fp32)
+#   study          the flume parameter study (mpm/scenes/ensembles/flume_study.toml, 64 members,
+#                  lifting gate, 0.8 s of flow, CFL step), summary in study_summary.csv
 #
 # Results go to $GPU_OUT, else $OUT, else out/gpu: PART.log (each command, printed before it
 # runs, and its output), series.csv, PART_csv.tgz (the runs' CSV outputs); stdout has the
@@ -276,6 +280,69 @@ part_perf() {
   run col035_default 120 "$COL" --stop-after 0.35
 }
 
+# The --set words of member K of an ensemble's summary.csv (the columns between member and status).
+member_sets() {
+  awk -F, -v k="$2" 'NR == 1 {for (i = 2; $i != "status"; ++i) key[i] = $i; n = i; next}
+    $1 == k {for (i = 2; i < n; ++i) printf "--set %s=%s ", key[i], $i}' "$1"
+}
+
+# ens NAME CAP SCENE DESIGN ARGS...: granflow ensemble on the GPU into $R/NAME; one line of figures.
+ens() {
+  local name=$1 cap=$2 scene=$3 design=$4
+  shift 4
+  x "${TMO:-$cap}" "$R/$name.txt" "$G" ensemble "$scene" "$design" --backend "$BACKEND" --out "$R/$name" --force \
+    --no-png --quiet "$@"
+  local rc=$?
+  awk -v l="$name" -v rc=$rc '/^members:/ {m = $2 " members, " $3 " " $4} /^particles:/ {n = $2} /^steps:/ {s = $2}
+    /^wall:/ {w = $2} /^particle-updates/ {u = $2} /^wall per step/ {p = $4}
+    END {printf "  %-24s exit %s: %s, %s points, %s steps, wall %s s (%s us/step), %s particle-updates/s\n",
+                l, rc, m, n, s, w, p, u}' "$R/$name.txt"
+  return $rc
+}
+
+# Member K's final run-out in an ensemble's summary.csv.
+member_runout() {
+  awk -F, -v k="$2" 'NR == 1 {for (i = 1; i <= NF; ++i) if ($i == "runout") c = i; next} $1 == k {print $c}' "$1"
+}
+
+part_ensemble() {
+  local p k c5=(--set grid.h=0.005 --set time.dt=5e-5) t0 seq
+  for p in fp32 fp64; do
+    echo "== 64 members of the 5 mm column ($p): batched, then members 0-3 one after the other"
+    ens "col5_64_$p" 300 "$COL" "$SC/ensembles/column_bench_64.toml" "${c5[@]}" --precision $p
+    t0=$SECONDS
+    for k in 0 1 2 3; do
+      # shellcheck disable=SC2046  # member_sets prints words
+      run "col5_${p}_m$k" 60 "$COL" "${c5[@]}" --precision $p $(member_sets "$R/col5_64_$p/summary.csv" $k)
+      echo "    member $k run-out: ensemble $(member_runout "$R/col5_64_$p/summary.csv" $k) m, single $(awk '/^final run-out/ {print $3}' "$R/col5_${p}_m$k.txt") m"
+    done
+    seq=$((SECONDS - t0))
+    echo "  sequential: 4 members in $seq s (process wall, set-up included): 64 members ~ $((16 * seq)) s"
+  done
+  echo "== 16 members of the 1 mm column (fp32): batched, then members 0-1 one after the other"
+  ens col1_16_fp32 300 "$COL" "$SC/ensembles/column_bench_16.toml" --precision fp32
+  for k in 0 1; do
+    # shellcheck disable=SC2046
+    run "col1_fp32_m$k" 60 "$COL" --precision fp32 $(member_sets "$R/col1_16_fp32/summary.csv" $k)
+    echo "    member $k run-out: ensemble $(member_runout "$R/col1_16_fp32/summary.csv" $k) m, single $(awk '/^final run-out/ {print $3}' "$R/col1_fp32_m$k.txt") m"
+  done
+  cp "$R/col5_64_fp32/summary.csv" "$RES/ensemble_col5_64_fp32.csv" 2>/dev/null
+  cp "$R/col1_16_fp32/summary.csv" "$RES/ensemble_col1_16_fp32.csv" 2>/dev/null
+}
+
+# The flume study: the front at 0.4 and 0.8 s against phi_c, e0, the base friction and the
+# gate's lift speed (docs/mpm_ensembles.md). The gate moves to the release stage (flume_study.toml).
+part_study() {
+  ens flume_study 560 "$FLU" "$SC/ensembles/flume_study.toml" --set 'stage[1].gate.point=[0.35355, 1.27279]' \
+    --set 'stage[1].gate.normal=[1.0, 0.0]' --set 'stage[1].duration=0.8' --set 'output.times=[0.4, 0.8]' \
+    --set time.adaptive=true --set time.dt=1e-4 --precision fp32
+  cp "$R/flume_study/summary.csv" "$RES/study_summary.csv" 2>/dev/null
+  mkdir -p "$RES/study_profiles"
+  for f in "$R"/flume_study/member_*/profile_final.csv; do
+    [ -f "$f" ] && cp "$f" "$RES/study_profiles/$(basename "$(dirname "$f")").csv"
+  done
+}
+
 part_profile() {
   local ncu
   ncu=$(command -v ncu || ls /usr/local/cuda*/bin/ncu /opt/nvidia/nsight-compute/*/ncu 2>/dev/null | head -1)
@@ -333,8 +400,8 @@ main() {
   local part fn f t0 status=0
   for part in "$@"; do
     case $part in
-      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d) ;;
-      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d)" >&2
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | study) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble study)" >&2
          return 2 ;;
     esac
   done
