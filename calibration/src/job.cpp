@@ -78,7 +78,7 @@ struct Parsed {
 Parsed read_experiment_common(io::TomlTable& t, const std::string& job_file, std::size_t index, bool need_file) {
   Parsed p;
   p.name = t.string_or("name", "experiment" + std::to_string(index + 1));
-  p.kind = t.choice("kind", {"steady_shear", "element"}, "");
+  p.kind = t.choice("kind", {"steady_shear", "element", "mpm_scene"}, "");
   DataSelection& s = p.sel;
   s.file = resolve(job_file, t.string("data"));
   if (need_file && !fs::exists(s.file)) t.fail("data", "no such file: " + s.file);
@@ -201,7 +201,15 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
   std::vector<std::pair<std::string, std::string>> synthetic;  // file, text: written once all are made
   for (std::size_t i = 0; i < exps.size(); ++i) {
     io::TomlTable& t = exps[i];
-    const bool synth_this = synth && t.raw().get("kind") && t.raw().get("kind")->value_or(std::string()) == "element";
+    const std::string kind_of = t.raw().get("kind") ? t.raw().get("kind")->value_or(std::string()) : "";
+    if (kind_of == "mpm_scene") {  // its own table format (scene_experiment.cpp)
+      auto e = make_scene_experiment(t, path, i);
+      if (!names.insert(e->name).second) t.fail("name", "experiment name '" + e->name + "' is used twice");
+      if (!synth) job.experiments.push_back(e);
+      t.finish();
+      continue;
+    }
+    const bool synth_this = synth && kind_of == "element";
     Parsed p = read_experiment_common(t, path, i, !synth_this);
     if (!names.insert(p.name).second) t.fail("name", "experiment name '" + p.name + "' is used twice");
     if (p.kind == "element") {

@@ -4,6 +4,7 @@
 // (the DEM / shear-cell case) and element tests run by the element-test driver.
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -24,6 +25,9 @@ struct Curve {
   std::vector<double> x, y;  // data, x strictly increasing
   std::vector<long> lines;   // file line of each point (first of averaged duplicates)
   double weight = 1.0;
+  // Standard deviation of the data in data units for the Gaussian likelihood of the ensemble
+  // method (NaN: the job's default for its kind; docs/calibration.md, "Uncertainty").
+  double sd = std::numeric_limits<double>::quiet_NaN();
   std::string label() const { return experiment + ":" + data_column; }
 };
 
@@ -44,6 +48,14 @@ class Experiment {
   std::string data_file;
   std::vector<Curve> curves;
   virtual Prediction predict(const io::ParameterSet& params) const = 0;
+  // Predictions for many sets at once. Batched experiments (MPM scenes: one ensemble run for all
+  // sets) override it; the others are evaluated set by set on the caller's threads.
+  virtual bool batched() const { return false; }
+  virtual std::vector<Prediction> predict_batch(const std::vector<io::ParameterSet>& sets) const {
+    std::vector<Prediction> out;
+    for (const auto& s : sets) out.push_back(predict(s));
+    return out;
+  }
   // Parameters the experiment takes from its data instead of the set (written into the fitted file).
   virtual std::string data_parameters() const { return ""; }
   // Highest abscissa value (for the steady-shear V_sd check).
@@ -94,6 +106,12 @@ std::vector<std::shared_ptr<const Experiment>> make_element_experiments(const st
                                                                         const DataSelection& sel,
                                                                         io::TomlTable& test_table,
                                                                         const std::string& model_abscissa);
+
+// MPM scenes (kind = "mpm_scene", scene_experiment.cpp): the [[experiments]] table names a scene
+// file, fixed --set overrides, and measured data (final free surface, front against time, a
+// tracked point's path), each with its standard deviation. `job_file` resolves relative paths.
+std::shared_ptr<const Experiment> make_scene_experiment(io::TomlTable& table, const std::string& job_file,
+                                                        std::size_t index);
 
 // Synthetic data for an element experiment: runs the test with `truth`, keeps every `stride`-th
 // output row after the first, multiplies every target by (1 + noise * N(0,1)) from a generator
