@@ -1,11 +1,214 @@
-// MPM scenes as calibration experiments (kind = "mpm_scene"; docs/calibration.md).
+// MPM scenes as calibration experiments (kind = "mpm_scene"; docs/calibration_scenes.md). A
+// batch of parameter sets is one ensemble run (mpm/ensemble.hpp): member i runs the scene with
+// set i's frictional and collisional parameters. What is compared with the data:
+//   surface  the final free surface y(x) (free_surface of the last sample); beyond the simulated
+//            deposit the surface is the run-out polyline (the floor): height 0 above it
+//   front    the run-out against the time since the release (the last stage's start)
+//   track    a tracked point's x and y against the time since the release
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
 #include <granflow/calibration/experiment.hpp>
+#include <granflow/io/csv_table.hpp>
+#include <granflow/io/input_error.hpp>
 #include <granflow/io/toml_reader.hpp>
+#include <granflow/mpm/ensemble.hpp>
+#include <granflow/mpm/scene_file.hpp>
 
 namespace granflow::calibration {
 
-std::shared_ptr<const Experiment> make_scene_experiment(io::TomlTable& t, const std::string&, std::size_t) {
-  t.fail("kind", "MPM scene experiments are not built yet");
+namespace {
+
+// Linear interpolation of y(x) at x (x increasing); beyond the ends: `outside` (NaN: the end value).
+double interpolate(const std::vector<double>& xs, const std::vector<double>& ys, double x, double outside) {
+  if (xs.empty()) return std::nan("");
+  if (x <= xs.front()) return std::isnan(outside) ? ys.front() : (x < xs.front() ? outside : ys.front());
+  if (x >= xs.back()) return std::isnan(outside) ? ys.back() : (x > xs.back() ? outside : ys.back());
+  const auto it = std::upper_bound(xs.begin(), xs.end(), x);
+  const size_t i = static_cast<size_t>(it - xs.begin());
+  const double w = (x - xs[i - 1]) / (xs[i] - xs[i - 1]);
+  return ys[i - 1] + w * (ys[i] - ys[i - 1]);
+}
+
+enum class Measured { SurfaceY, Front, TrackX, TrackY };
+
+struct SceneCurve {
+  Measured what;
+  std::string track;  // Track* only
+};
+
+class SceneExperiment final : public Experiment {
+ public:
+  std::string scene_file;
+  mpm::SceneOverrides fixed;
+  std::string backend = "auto";
+  std::vector<SceneCurve> measured;  // one per curve
+  bool progress = true;
+
+  bool batched() const override { return true; }
+  Prediction predict(const io::ParameterSet& params) const override { return predict_batch({params}).front(); }
+
+  std::vector<Prediction> predict_batch(const std::vector<io::ParameterSet>& sets) const override {
+    const mpm::Scene base = mpm::load_scene(scene_file, fixed);
+    std::vector<Prediction> out(sets.size());
+    std::vector<mpm::SceneSetup> ms;
+    std::vector<size_t> member_of_set(sets.size(), SIZE_MAX);
+    for (size_t i = 0; i < sets.size(); ++i) {
+      mpm::Scene sc = base;
+      const double rho_p = sc.material.params.c.rho_p;  // the scene's grain density stays
+      if (sets[i].frictional) sc.material.params.f = *sets[i].frictional;
+      if (sets[i].collisional) sc.material.params.c = *sets[i].collisional;
+      sc.material.params.c.rho_p = rho_p;
+      try {
+        io::check_initial_void_ratio(sets[i], sc.material.e0, "the scene's material.e0");
+        ms.push_back(mpm::make_setup(sc));
+        member_of_set[i] = ms.size() - 1;
+      } catch (const std::exception& e) {
+        out[i].ok = false;
+        out[i].error = e.what();
+      }
+    }
+    if (ms.empty()) return out;
+    const mpm::SceneSetup su = mpm::make_ensemble_setup(ms);
+    const bool gpu = backend == "cuda" || (backend == "auto" && mpm::cuda_backend_available());
+    auto runner = gpu ? mpm::make_cuda_runner(su) : mpm::make_cpu_runner(su);
+    mpm::EnsembleOptions eo;
+    eo.progress = progress;
+    const mpm::EnsembleSummary es = mpm::run_ensemble(su, ms, *runner, eo);
+    for (size_t i = 0; i < sets.size(); ++i) {
+      if (member_of_set[i] == SIZE_MAX) continue;
+      const size_t k = member_of_set[i];
+      const mpm::MemberSummary& m = es.members[k];
+      Prediction& p = out[i];
+      if (!m.ok) {
+        p.ok = false;
+        p.error = "MPM member failed: " + m.message;
+        continue;
+      }
+      for (size_t c = 0; c < curves.size(); ++c) p.values.push_back(model_values(c, m, ms[k]));
+    }
+    return out;
+  }
+
+ private:
+  std::vector<double> model_values(size_t c, const mpm::MemberSummary& m, const mpm::SceneSetup& su) const {
+    const Curve& cv = curves[c];
+    std::vector<double> v;
+    if (measured[c].what == Measured::SurfaceY) {
+      std::vector<double> px, py;
+      for (const auto& [x, y] : m.profile) {
+        px.push_back(x);
+        py.push_back(y);
+      }
+      const std::vector<double>& lx = su.scene.runout_x;
+      const std::vector<double>& ly = su.scene.runout_y;
+      for (double x : cv.x) {
+        const double floor = lx.size() >= 2 ? interpolate(lx, ly, x, std::nan("")) : su.scene.origin[1];
+        v.push_back(x < px.front() || x > px.back() ? floor : std::max(floor, interpolate(px, py, x, std::nan(""))));
+      }
+      return v;
+    }
+    std::vector<double> t, q;
+    if (measured[c].what == Measured::Front) {
+      for (const auto& r : m.series)
+        if (r.t_flow >= 0) {
+          t.push_back(r.t_flow);
+          q.push_back(r.m.runout);
+        }
+    } else {
+      size_t track = 0;
+      for (; track < su.scene.tracks.size(); ++track)
+        if (su.scene.tracks[track].name == measured[c].track) break;
+      for (const auto& r : m.tracks)
+        if (r.track == track && r.t_flow >= 0 && (t.empty() || r.t_flow > t.back())) {
+          t.push_back(r.t_flow);
+          q.push_back(measured[c].what == Measured::TrackX ? r.x : r.y);
+        }
+    }
+    for (double x : cv.x) v.push_back(x > t.back() + 1e-12 ? std::nan("") : interpolate(t, q, x, std::nan("")));
+    return v;
+  }
+};
+
+// A data table of an experiment: its file (relative to the job), two columns, the sd.
+Curve read_curve(io::TomlTable& t, const std::string& job_file, const std::string& xkey, const std::string& ykey,
+                 const std::string& experiment, const std::string& model_output, double default_sd) {
+  std::string file = t.string("data");
+  if (!file.empty() && file[0] != '/') {
+    const auto slash = job_file.find_last_of('/');
+    if (slash != std::string::npos) file = job_file.substr(0, slash + 1) + file;
+  }
+  const std::string xc = t.string_or(xkey, xkey), yc = t.string_or(ykey, ykey);
+  Curve c;
+  c.experiment = experiment;
+  c.data_column = yc;
+  c.abscissa = xc;
+  c.model_output = model_output;
+  c.sd = t.number_or("sd", default_sd, io::Bounds::positive());
+  c.weight = 1.0;
+  const io::CsvColumns cols = io::read_csv_columns(file, {xc, yc});
+  c.x = cols.column(xc);
+  c.y = cols.column(yc);
+  c.lines = cols.lines;
+  for (size_t i = 1; i < c.x.size(); ++i)
+    if (!(c.x[i] > c.x[i - 1]))
+      throw io::InputError(io::where(file, cols.lines[i]) + "column '" + xc + "' must increase strictly");
+  if (c.x.empty()) throw io::InputError(io::where(file) + "no data rows");
+  return c;
+}
+
+}  // namespace
+
+// Default standard deviations of the data (docs/calibration_scenes.md).
+inline constexpr double kSurfaceSd = 0.003;  // m: a digitised free surface
+inline constexpr double kFrontSd = 0.01;     // m: a front position read from video frames
+inline constexpr double kTrackSd = 0.005;    // m
+
+std::shared_ptr<const Experiment> make_scene_experiment(io::TomlTable& t, const std::string& job_file,
+                                                        std::size_t index) {
+  auto e = std::make_shared<SceneExperiment>();
+  e->name = t.string_or("name", "experiment" + std::to_string(index + 1));
+  e->kind = t.choice("kind", {"mpm_scene"}, "mpm_scene");
+  std::string scene = t.string("scene");
+  if (!scene.empty() && scene[0] != '/') {
+    const auto slash = job_file.find_last_of('/');
+    if (slash != std::string::npos) scene = job_file.substr(0, slash + 1) + scene;
+  }
+  e->scene_file = scene;
+  e->data_file = scene;
+  if (t.has("set")) e->fixed.sets = t.strings("set");
+  e->backend = t.choice("backend", {"auto", "cpu", "cuda"}, "auto");
+  e->progress = t.boolean_or("progress", true);
+  mpm::Scene sc;
+  try {
+    sc = mpm::load_scene(scene, e->fixed);
+  } catch (const io::InputError& err) {
+    t.fail("scene", err.what());
+  }
+  e->abscissa_quantity = "time";
+  if (auto s = t.optional_table("surface")) {
+    e->curves.push_back(read_curve(*s, job_file, "x", "y", e->name, "surface_y", kSurfaceSd));
+    e->measured.push_back({Measured::SurfaceY, ""});
+    s->finish();
+  }
+  if (auto f = t.optional_table("front")) {
+    e->curves.push_back(read_curve(*f, job_file, "t", "x", e->name, "runout", kFrontSd));
+    e->measured.push_back({Measured::Front, ""});
+    f->finish();
+  }
+  for (io::TomlTable& tr : t.array_of_tables("track")) {
+    const std::string name = tr.string("name");
+    if (std::none_of(sc.tracks.begin(), sc.tracks.end(), [&](const mpm::Track& k) { return k.name == name; }))
+      tr.fail("name", "the scene tracks no point '" + name + "'");
+    e->curves.push_back(read_curve(tr, job_file, "t", "x", e->name + "[" + name + "]", "track_x", kTrackSd));
+    e->measured.push_back({Measured::TrackX, name});
+    e->curves.push_back(read_curve(tr, job_file, "t", "y", e->name + "[" + name + "]", "track_y", kTrackSd));
+    e->measured.push_back({Measured::TrackY, name});
+    tr.finish();
+  }
+  if (e->curves.empty()) t.fail("surface", "an mpm_scene experiment needs [surface], [front] or [[track]] data");
+  return e;
 }
 
 }  // namespace granflow::calibration
