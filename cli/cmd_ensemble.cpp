@@ -116,11 +116,7 @@ std::string summary_csv(const mpm::EnsembleDesign& d, const mpm::Scene& sc, cons
   for (size_t k = 0; k < s.members.size(); ++k) {
     const mpm::MemberSummary& m = s.members[k];
     os << k;
-    for (double v : d.values[k]) {  // as the members got them (member_overrides: reads back exactly)
-      char buf[32];
-      std::snprintf(buf, sizeof buf, "%.17g", v);
-      os << ',' << buf;
-    }
+    for (double v : d.values[k]) os << ',' << mpm::format_exact(v);  // as the members got them
     os << ',' << (m.ok ? "ok" : "failed") << ',' << m.final.runout << ',' << m.final.height;
     for (double r : m.runout_at) {
       os << ',';
