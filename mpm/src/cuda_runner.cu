@@ -5,6 +5,7 @@
 
 #include <memory>
 #include <stdexcept>
+#include <string>
 
 #include "runner_common.hpp"
 
@@ -38,6 +39,15 @@ struct MakeCuda {
 bool cuda_backend_available() {
   int n = 0;
   return cudaGetDeviceCount(&n) == cudaSuccess && n > 0;
+}
+
+int cuda_device_count() {
+  int n = 0;
+  return cudaGetDeviceCount(&n) == cudaSuccess ? n : 0;
+}
+
+void cuda_select_device(int device) {
+  if (cudaSetDevice(device) != cudaSuccess) throw std::runtime_error("cudaSetDevice(" + std::to_string(device) + ") failed");
 }
 
 bool cuda_memory_info(std::size_t& free, std::size_t& total) {
