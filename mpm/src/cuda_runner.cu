@@ -10,7 +10,7 @@
 
 namespace granflow::mpm {
 
-template <int D, class S, class Model, class Shape, bool kB>
+template <int D, class S, class Model, class Shape, bool kB, bool kM>
 std::unique_ptr<Runner> make_cuda_runner_t(const SceneSetup& su, const CudaOptions& opt);
 
 namespace {
@@ -28,7 +28,7 @@ struct MakeCuda {
     } else
 #endif
     {
-      return make_cuda_runner_t<D, S, Model, Shape, kB>(su, opt);
+      return make_cuda_runner_t<D, S, Model, Shape, kB, false>(su, opt);
     }
   }
 };
