@@ -40,7 +40,7 @@ __global__ void subset_kernel(ParticleView<S> src, const std::uint32_t* inv, con
 
 template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
 inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::frame(Frame& out, bool diagnostics,
-                                                            const std::vector<long>& subset) {
+                                                                      const std::vector<long>& subset) {
   if (diagnostics) {
     std::vector<S> host = fetch_all();
     if constexpr (kMembers)

@@ -208,7 +208,8 @@ bool ensemble_case(const EnsembleCase& c, bool short_run, double tol) {
   gpu->frame(fg, false);
   HostParticles hg;
   gpu->download(hg);
-  bool ok = dc.ok && dg.ok && gpu->nodes() == kEnsembleMembers * ms[0].n_nodes && gpu->particles() == kEnsembleMembers * np;
+  bool ok = dc.ok && dg.ok && gpu->nodes() == kEnsembleMembers * ms[0].n_nodes &&
+            gpu->particles() == kEnsembleMembers * np;
   std::string lines;
   double single_wall = 0;
   Agreement worst_cpu, worst_single;
@@ -241,8 +242,8 @@ bool ensemble_case(const EnsembleCase& c, bool short_run, double tol) {
       std::snprintf(buf, sizeof buf,
                     "  member %d: run-out cpu ensemble %.5f m, gpu ensemble %.5f m, gpu single %.5f m | vs cpu: %.2e / "
                     "%.2e, %ld points > h/4 | vs single: %.2e / %.2e, %ld points%s%s\n",
-                    k, a.ra, a.rb, b.ra, a.runout, a.height, a.far, b.runout, b.height, b.far, mok ? "" : "  <- differs",
-                    ds.ok ? "" : ("; single run: " + ds.message).c_str());
+                    k, a.ra, a.rb, b.ra, a.runout, a.height, a.far, b.runout, b.height, b.far,
+                    mok ? "" : "  <- differs", ds.ok ? "" : ("; single run: " + ds.message).c_str());
     } else {
       // fails alone, at the CPU twin's step (give or take 2) with a particle of the same row,
       // as its single run does; its points stay where the failed step left them
@@ -258,7 +259,8 @@ bool ensemble_case(const EnsembleCase& c, bool short_run, double tol) {
       std::snprintf(buf, sizeof buf,
                     "  member %d (thrown out of the grid): cpu ensemble step %ld particle %ld (%s) | gpu ensemble step "
                     "%ld particle %ld (%s) | gpu single: %s | retired points unchanged since: %s%s\n",
-                    k, fcpu ? fcpu->step : -1L, fcpu ? fcpu->f.particle : -1L, fcpu ? status_field(fcpu->f.status) : "-",
+                    k, fcpu ? fcpu->step : -1L, fcpu ? fcpu->f.particle : -1L,
+                    fcpu ? status_field(fcpu->f.status) : "-",
                     fgpu ? fgpu->step : -1L, fgpu ? fgpu->f.particle : -1L, fgpu ? status_field(fgpu->f.status) : "-",
                     ds.ok ? "did not fail" : ds.message.c_str(), frozen ? "yes" : "no", mok ? "" : "  <- differs");
     }
