@@ -95,6 +95,7 @@ FitResult fit_ensemble(const Objective& obj, const FitOptions& options) {
   spec.members = es.members;
   spec.iterations = es.iterations;
   spec.seed = es.seed;
+  spec.transform = es.transform == "logit" ? UnitTransform::Logit : UnitTransform::Probit;
 
   std::vector<std::vector<Prediction>> last;  // the latest batch's predictions, per member and experiment
   const BatchForward forward = [&](const std::vector<std::vector<double>>& thetas) {

@@ -215,6 +215,7 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
     s.seed = static_cast<unsigned long>(e->integer_or("seed", static_cast<long>(s.seed), 0, 4294967295L));
     s.polish = e->boolean_or("polish", s.polish);
     s.polish_evaluations = e->integer_or("polish_evaluations", s.polish_evaluations, 1, 100000000);
+    s.transform = e->choice("transform", {"probit", "logit"}, s.transform);
     e->finish();
   }
   if (auto l = root.optional_table("likelihood")) {

@@ -190,7 +190,8 @@ std::string format_ensemble_report(const Objective& obj, const FitResult& r) {
   std::ostringstream os;
   os << "ensemble method: ES-MDA (Emerick & Reynolds 2013), " << N << " members, " << job.ensemble.iterations
      << " iterations with inflation alpha = " << job.ensemble.iterations << ", seed " << job.ensemble.seed
-     << "; prior uniform within the bounds (in log for log = true), Latin hypercube\n";
+     << "; prior uniform within the bounds (in log for log = true), Latin hypercube; update in z = "
+     << job.ensemble.transform << "(u)\n";
   os << "likelihood: Gaussian in " << (job.misfit.scale == MisfitScale::Log ? "ln(data)" : "data units") << ", " << m
      << " data; sd " << (given ? std::to_string(given) + " curve(s) from target_sd, the others " : "")
      << "relative_sd = " << num(job.likelihood.relative_sd)

@@ -16,18 +16,24 @@
 namespace granflow::calibration {
 
 // A free parameter's prior: uniform in [lower, upper] (in log(value) with log = true). The
-// update works on z = logit of the unit coordinate, so members never leave the bounds.
+// update works on z = probit (or logit) of the unit coordinate u, so members never leave the bounds.
 struct PriorBound {
   std::string key;
   double lower = 0, upper = 1;
   bool log = false;
 };
 
+// z of the unit coordinate u. Probit (z = Phi^-1(u)): z of the uniform prior is exactly standard
+// normal, the Gaussian prior the update assumes. Logit (z = ln(u / (1 - u))): logistic z, whose
+// heavy tails leave prior members far out in flat regions of the model for more iterations.
+enum class UnitTransform { Probit, Logit };
+
 struct EnsembleMethodSpec {
   long members = 64;
   int iterations = 4;        // ES-MDA assimilations, each with inflation alpha = iterations
   std::uint64_t seed = 1;    // prior sample (Latin hypercube) and data perturbations
   double truncation = 0.999; // energy (sum of squared singular values) kept of the scaled prediction anomalies
+  UnitTransform transform = UnitTransform::Probit;
 };
 
 // Forward model of a batch: thetas[i] (physical units) -> predictions[i] (one value per datum,
@@ -70,7 +76,7 @@ struct EnsembleResult {
 // batch fails (fewer than two members computed before an update, none at the end).
 //
 // Prior: a Latin hypercube of spec.members points in the unit cube (own generator: the same
-// sample with every standard library), u -> z = logit(u). Each update uses the ensemble
+// sample with every standard library), u -> z = probit(u) or logit(u). Each update uses the ensemble
 // covariances of the members computed in that batch; a member that failed is first replaced by
 // a copy of a randomly drawn computed one (z and predictions), and moves on with its own data
 // perturbation. The gain is applied through the truncated SVD of the prediction anomalies
@@ -82,7 +88,7 @@ EnsembleResult run_ensemble_method(const std::vector<PriorBound>& prior, const s
 
 // The same iterations on unbounded coordinates from a given prior ensemble (z0[i]: member i;
 // spec.members is ignored): forward receives z, the result holds z. run_ensemble_method is
-// this with the Latin hypercube and the logistic map; exposed for the linear-Gaussian check.
+// this with the Latin hypercube and the unit transform; exposed for the linear-Gaussian check.
 EnsembleResult run_esmda(const std::vector<std::vector<double>>& z0, const std::vector<double>& data,
                          const std::vector<double>& sd, const BatchForward& forward, const EnsembleMethodSpec& spec,
                          const std::function<void(int, const EnsembleResult&)>& progress = {});

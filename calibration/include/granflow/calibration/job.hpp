@@ -56,6 +56,7 @@ struct EnsembleSpec {
   unsigned long seed = 1;
   bool polish = true;              // LN_BOBYQA from the best final member (where NLopt is built)
   long polish_evaluations = 100;
+  std::string transform = "probit";  // coordinates of the update: "probit" or "logit" of the unit coordinate
 };
 
 // Gaussian likelihood of the ensemble method: the sd of each datum in the misfit's scale.
