@@ -182,7 +182,6 @@ FitResult fit_ensemble(const Objective& obj, const FitOptions& options) {
   res.stop_reason = "ensemble: " + std::to_string(es.members) + " members, " + std::to_string(es.iterations) +
                     " iterations; polish " + rep->polish;
   res.ensemble = rep;
-  (void)options;
   return res;
 }
 
