@@ -38,7 +38,7 @@ struct EnsembleMethodSpec {
 
 // Forward model of a batch: thetas[i] (physical units) -> predictions[i] (one value per datum,
 // in the order of `data`), ok[i] = false where member i could not be computed (its message in
-// why[i]). Called once per iteration with all members.
+// why[i]). Called once per batch (iterations + 1 times) with all members.
 struct BatchResult {
   std::vector<std::vector<double>> predictions;
   std::vector<char> ok;
