@@ -74,6 +74,7 @@ struct DataSelection {
   bool average_duplicates = false;
   std::vector<std::pair<std::string, std::string>> targets;  // data column -> model output
   std::vector<double> target_weights;
+  std::vector<double> target_sd;  // per target: Curve::sd (NaN: the job's default)
   double weight = 1.0;
 };
 
