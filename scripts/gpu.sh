@@ -25,6 +25,7 @@
 #                  members of the 5 mm column (fp32, fp64), 16 of the 1 mm column (fp32)
 #   study          the flume parameter study (mpm/scenes/ensembles/flume_study.toml, 64 members,
 #                  lifting gate, 0.8 s of flow, CFL step), summary in study_summary.csv
+#   ensemble-batched  the batched runs of the ensemble part only
 #   ensemble-diag  the 64-member column sampled sparsely; a 1 mm member alone, twice
 #   calibrate      data/calibration/bui_column.toml (5 mm), then the 1 mm column with the fitted set
 #
@@ -362,7 +363,7 @@ part_ensemble_diag() {
 # the 1 mm column with the fitted set and with the start set (their final profiles in $RES).
 part_calibrate() {
   local t0=$SECONDS
-  x 420 "$R/bui.txt" "$G" calibrate data/calibration/bui_column.toml --out "$R/bui_fit" --force --no-plot --quiet
+  x 420 "$R/bui.txt" "$G" calibrate data/calibration/bui_column.toml --out "$R/bui_fit" --force --no-plot
   echo "  bui_column calibration: exit $?, $((SECONDS - t0)) s" | tee -a "$log"
   sed -n '/^parameter /,/^$/p; /^curve /,/^$/p; /^ iteration/,/^$/p; /^posterior over/,/^best final/p' "$R/bui.txt"
   rm -rf "$RES/bui_fit" && cp -r "$R/bui_fit" "$RES/bui_fit"
@@ -370,6 +371,15 @@ part_calibrate() {
   run bui_start_1mm 60 "$COL"
   cp "$R/bui_fit_1mm/profile_final.csv" "$RES/bui_fit_1mm_profile.csv"
   cp "$R/bui_start_1mm/profile_final.csv" "$RES/bui_start_1mm_profile.csv"
+}
+
+# The batched rows of the ensemble part only (the sequential runs are those of part_ensemble).
+part_ensemble_batched() {
+  local p
+  for p in fp32 fp64; do
+    ens "col5_64_$p" 300 "$COL" "$SC/ensembles/column_bench_64.toml" --set grid.h=0.005 --set time.dt=5e-5 --precision $p
+  done
+  ens col1_16_fp32 300 "$COL" "$SC/ensembles/column_bench_16.toml" --precision fp32
 }
 
 part_profile() {
@@ -429,8 +439,8 @@ main() {
   local part fn f t0 status=0
   for part in "$@"; do
     case $part in
-      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-diag | study | calibrate) ;;
-      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-diag study calibrate)" >&2
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate)" >&2
          return 2 ;;
     esac
   done
