@@ -337,14 +337,11 @@ part_ensemble() {
 # The flume study: the front at 0.4 and 0.8 s against phi_c, e0, the base friction and the
 # gate's lift speed (docs/mpm_ensembles.md). The gate moves to the release stage (flume_study.toml).
 part_study() {
-  ens flume_study 560 "$FLU" "$SC/ensembles/flume_study.toml" --set 'stage[1].gate.point=[0.35355, 1.27279]' \
+ ens flume_study "${STUDY_CAP:-560}" "$FLU" "$SC/ensembles/flume_study.toml" --set 'stage[1].gate.point=[0.35355, 1.27279]' \
     --set 'stage[1].gate.normal=[1.0, 0.0]' --set 'stage[1].duration=0.8' --set 'output.times=[0.4, 0.8]' \
     --set time.adaptive=true --set time.dt=1e-4 --precision fp32
   cp "$R/flume_study/summary.csv" "$RES/study_summary.csv" 2>/dev/null
-  mkdir -p "$RES/study_profiles"
-  for f in "$R"/flume_study/member_*/profile_final.csv; do
-    [ -f "$f" ] && cp "$f" "$RES/study_profiles/$(basename "$(dirname "$f")").csv"
-  done
+  tar czf "$RES/study_profiles.tgz" -C "$R/flume_study" $(cd "$R/flume_study" && ls -d member_*/profile_final.csv) 2>/dev/null
 }
 
 # What the ensemble's time per step is made of: the 64-member 5 mm column sampled every 50 ms

@@ -1,8 +1,9 @@
 // MPM scenes as calibration experiments (kind = "mpm_scene"; docs/calibration_scenes.md). A
 // batch of parameter sets is one ensemble run (mpm/ensemble.hpp): member i runs the scene with
 // set i's frictional and collisional parameters. What is compared with the data:
-//   surface  the final free surface y(x) (free_surface of the last sample); beyond the simulated
-//            deposit the surface is the run-out polyline (the floor): height 0 above it
+//   surface  the final free surface y(x) (free_surface of the last sample: the top of each cell-wide
+//            bin, at the bin's centre, interpolated linearly; before the first centre the first
+//            bin's top); beyond the simulated deposit the surface is the run-out polyline (the floor)
 //   front    the run-out against the time since the release (the last stage's start)
 //   track    a tracked point's x and y against the time since the release
 #include <algorithm>
@@ -105,7 +106,8 @@ class SceneExperiment final : public Experiment {
       const std::vector<double>& ly = su.scene.runout_y;
       for (double x : cv.x) {
         const double floor = lx.size() >= 2 ? interpolate(lx, ly, x, std::nan("")) : su.scene.origin[1];
-        v.push_back(x < px.front() || x > px.back() ? floor : std::max(floor, interpolate(px, py, x, std::nan(""))));
+        // before the first bin's centre: that bin's top (the wall side); beyond the last: the floor
+        v.push_back(x > px.back() ? floor : std::max(floor, interpolate(px, py, x, std::nan(""))));
       }
       return v;
     }

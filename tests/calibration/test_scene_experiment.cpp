@@ -42,7 +42,7 @@ std::string job_text(const std::string& scene_dir) {
 
 TEST(SceneExperiment, BatchPredictionsAreTheSingleRunsOfEachSet) {
   Scratch s;
-  std::string surface = "x,y\n", front = "t,x\n";
+  std::string surface = "x,y\n0.001,0.1\n", front = "t,x\n";  // 0.001: before the first bin's centre
   for (int i = 0; i < 25; ++i) surface += std::to_string(0.01 + 0.02 * i) + ",0.05\n";  // beyond the deposit too
   for (double t : {0.05, 0.1, 0.2, 0.3}) front += std::to_string(t) + ",0.3\n";
   s.write("surface.csv", surface);
