@@ -54,7 +54,8 @@ struct CvodeCallbacks {
     self->pack_raw(d, yd);
     static const char* const kRateNames[kN] = {"dsigma_f_xx/dt", "dsigma_f_yy/dt", "dsigma_f_zz/dt", "dsigma_f_xy/dt",
                                                "dsigma_f_yz/dt", "dsigma_f_xz/dt", "deps_pd/dt",     "de/dt",
-                                               "dsqrt(T)/dt",    "dgamma/dt",      "deps_v/dt",      "deps_a/dt"};
+                                               "dsqrt(T)/dt",    "dgamma/dt",      "deps_v/dt",      "deps_a/dt",
+                                               "deps_xx/dt",     "deps_zz/dt"};
     for (int i = 0; i < kN; ++i)
       if (!std::isfinite(yd[i])) {
         self->note_rhs_issue(t, std::string("rate ") + kRateNames[i] + " = " + std::to_string(yd[i]) +
@@ -100,7 +101,8 @@ struct CvodeCallbacks {
       const double* y = N_VGetArrayPointer(yv);
       ElementState x = self->unpack(y);
       if (!(mean_pressure(x.sf) > fpar(self->p_).p_min)) return 0;
-      const M3 D = sym(velocity_gradient(self->test_.path, self->seg_.rate(t), 0.0));
+      const double r = self->seg_.rate(t);
+      const M3 D = sym(self->stress_control() ? self->grad_v(x, r, true) : velocity_gradient(self->test_.path, r, 0.0));
       // Consistent (closest-point in the energy norm) correction along C^e m, the first branch
       // of the library's detail::correct_drift, applied unconditionally: correct_drift only
       // acts when |f| > ftol = 1e-9, and that switch made CVODE's step collapse at rtol 1e-10.
