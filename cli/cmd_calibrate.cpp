@@ -1,4 +1,5 @@
 // granflow calibrate: fit a parameter set to measured curves (issue 4; docs/calibration.md).
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -60,7 +61,9 @@ void run_calibrate(const CalibrateOptions& o) {
   fo.evaluate_only = o.evaluate;
   const FitResult r = fit(obj, fo);
   if (!o.quiet) std::cout << format_report(obj, r);
-  if (!job.predictions.empty()) {  // held-out tests: the per-test report (tests.csv, PNGs) beside the fit's
+  const bool per_test = !job.predictions.empty() ||
+                        std::any_of(job.free.begin(), job.free.end(), [](const auto& p) { return !p.experiment.empty(); });
+  if (per_test) {  // held-out tests or per-test e0: the per-test report (tests.csv, PNGs) beside the fit's
     const TestReport tr = evaluate_tests(job, obj.parameters_at(r.theta));
     if (!o.quiet) std::cout << format_test_report(tr);
     write_test_report(tr, obj.parameters_at(r.theta), folder.staging(), !o.no_plot);

@@ -19,6 +19,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.ticker import NullFormatter, ScalarFormatter  # noqa: E402
 
 from png_output import save_png  # noqa: E402  (beside this script)
 
@@ -61,7 +62,7 @@ def panels(tests, title, path, draw):
         ax.axis("off")
     fig.suptitle(title + "  (markers: data, line: model; * e0 fitted per test)", fontsize=10)
     fig.tight_layout()
-    save_png(fig, path, 110)
+    save_png(fig, path, 80)
     plt.close(fig)
 
 
@@ -132,6 +133,8 @@ def main():
         ps = [lo * (hi / lo) ** (i / 40.0) for i in range(41)] if lo > 0 else []
         ax.plot(kpa(ps), [ec(pp) for pp in ps], ":", color="k", lw=0.8)
         ax.set_xscale("log")
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_ylabel("e", fontsize=7)
 
     d = a.dir

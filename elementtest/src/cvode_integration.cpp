@@ -167,6 +167,11 @@ void Driver<Model>::run_cvode(ElementState& x, const std::vector<Segment>& segs,
   }
   bool first = true;
   double last_progress = 0;
+  // Chattering: the mode switching back and forth without progress in time (no consistent
+  // mode, e.g. stress control where the law softens) is an error: 1000 switches within 1e-4 of the run.
+  double chatter_t = t;
+  long chatter_n = 0;
+  const double chatter_span = 1e-4 * std::max(t_end - t, 1e-300);
   for (std::size_t si = 0; si < segs.size(); ++si) {
     seg_ = segs[si];
     bool restart = true;
@@ -228,6 +233,16 @@ void Driver<Model>::run_cvode(ElementState& x, const std::vector<Segment>& segs,
       if (flag == CV_ROOT_RETURN) {
         ++out.stats.events;
         if (out.stats.events > 100000) throw std::runtime_error("element test: more than 100000 switch events (chattering) at t = " + std::to_string(t));
+        if (t - chatter_t > chatter_span) {
+          chatter_t = t;
+          chatter_n = 0;
+        } else if (++chatter_n > 1000) {
+          std::ostringstream os;
+          os.precision(10);
+          os << "element test '" << test_.name << "': the elastic/plastic mode switched 1000 times within 1e-4 of the run at t = "
+             << t << " s (no consistent mode: e.g. stress control of a softening state); state: " << state_text(x);
+          throw std::runtime_error(os.str());
+        }
         int found[2] = {0, 0};
         CVodeGetRootInfo(c.mem, found);
         if (found[0] != 0 && mean_pressure(x.sf) <= 1e-6 * sigma_ref_) {
