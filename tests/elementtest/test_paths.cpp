@@ -213,3 +213,33 @@ TEST(ElementPaths, StrainDataProgrammeMatchesTheConstantProgramme) {
     EXPECT_NEAR(a.column("p")[i], b.column("p")[i], 1e-5 * 1e5) << "row " << i;
   }
 }
+
+// A stress-controlled oedometer on a state the law softens in has no consistent elastic/plastic
+// mode: the run must stop with that diagnosis after 1000 switches (before the guard, this
+// parameter set, met by a random start of a calibration, switched 100000 times in 42 s).
+TEST(ElementPaths, StressControlOfASofteningStateStopsWithAChatteringError) {
+  write("soft.csv", "sigma_a\n0\n11683\n20000\n50000\n");
+  gt::TestFile tf = gt::load_test_file(write(
+      "soft.toml", "[test]\nmodel = \"frictional\"\npath = \"oedometric\"\nprogramme = \"data\"\ndata_file = \"soft.csv\"\n"
+                   "control_column = \"sigma_a\"\ncontrol = \"stress\"\nrate = 1000\ne0 = 1.00359\nsigma_v0 = 11683\n"
+                   "initial_stress = \"k0\"\nmax_steps = 20000\n"));
+  ParameterSet set = pset("frictional_element");
+  auto& f = *set.frictional;
+  f.K0 = 206.78353877566397;
+  f.nu = 0.20434650353796102;
+  f.n = 0.48072839101614406;
+  f.phi_c = 33.776111611080452 * kPi / 180;
+  f.e_ref = 1.0752755378910597;
+  f.lambda_c = 0.12865703465313433;
+  f.xi = 1.0865767776254567;
+  f.A_d = 7.2092685304081003;
+  f.k_p = 0.020483277108394409;
+  f.n_p = 4.9567502953703126;
+  f.n_d = 3.4221130023800876;
+  try {
+    gt::run_element_test(tf.test, set);
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("switched 1000 times"), std::string::npos) << e.what();
+  }
+}
