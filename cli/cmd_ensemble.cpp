@@ -2,13 +2,16 @@
 // together by one runner; per member the series and final profile granflow mpm writes, a
 // summary CSV and PNGs of the final profiles and of each summary quantity against each
 // varied value (scripts/plot_ensemble.py).
+#include <algorithm>
 #include <cmath>
+#include <exception>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <granflow/io/output.hpp>
@@ -31,6 +34,7 @@ struct EnsembleCmd {
   std::string scene, design, out, backend = "cpu", precision;
   bool force = false, no_png = false, quiet = false, frames = false;
   long span = 10000;
+  int devices = 0;  // at most this many GPUs (0: all visible)
   CudaFlags cuda;
   mpm::SceneOverrides overrides;
 };
@@ -82,17 +86,18 @@ mpm::SceneSetup member_setup(const EnsembleCmd& o, const mpm::EnsembleDesign& d,
 // Refuses, before the other members are set up, a design whose runner buffers (all members) do
 // not fit 90 % of the GPU's free memory (CUDA) or of the host's available memory (CPU twin,
 // with the members' set-ups, which the host holds twice: per member and combined).
-void check_memory(const EnsembleCmd& o, const mpm::EnsembleDesign& d, const mpm::SceneSetup& first) {
+void check_memory(const EnsembleCmd& o, const mpm::EnsembleDesign& d, const mpm::SceneSetup& first, int devices) {
   const mpm::MemoryEstimate m = mpm::estimate_memory(first);
   const bool gpu = o.backend == "cuda";
   const double per = gpu ? m.device_bytes() : m.device_bytes() + 2 * m.host_bytes;
-  const double need = per * double(d.members), have = available_bytes(o.backend);
+  const double need = per * double(d.members), have = available_bytes(o.backend) * (gpu ? devices : 1);
   if (!(have > 0) || need <= 0.9 * have) return;
   char buf[320];
   std::snprintf(buf, sizeof buf,
                 "%ld members need %.2f GiB (%.4f GiB each) and the %s has %.2f GiB available: at most %ld members "
                 "fit; lower design.members or use a coarser grid",
-                d.members, need / 1073741824.0, per / 1073741824.0, gpu ? "GPU" : "host", have / 1073741824.0,
+                d.members, need / 1073741824.0, per / 1073741824.0, gpu ? (devices > 1 ? "GPUs" : "GPU") : "host",
+                have / 1073741824.0,
                 static_cast<long>(0.9 * have / per));
   throw io::InputError(io::where(d.file) + buf);
 }
@@ -116,11 +121,7 @@ std::string summary_csv(const mpm::EnsembleDesign& d, const mpm::Scene& sc, cons
   for (size_t k = 0; k < s.members.size(); ++k) {
     const mpm::MemberSummary& m = s.members[k];
     os << k;
-    for (double v : d.values[k]) {  // as the members got them (member_overrides: reads back exactly)
-      char buf[32];
-      std::snprintf(buf, sizeof buf, "%.17g", v);
-      os << ',' << buf;
-    }
+    for (double v : d.values[k]) os << ',' << mpm::format_exact(v);  // as the members got them
     os << ',' << (m.ok ? "ok" : "failed") << ',' << m.final.runout << ',' << m.final.height;
     for (double r : m.runout_at) {
       os << ',';
@@ -135,34 +136,77 @@ std::string summary_csv(const mpm::EnsembleDesign& d, const mpm::Scene& sc, cons
 void run_ensemble_cmd(const EnsembleCmd& o) {
   const mpm::EnsembleDesign design = mpm::load_design(o.design);
   check_vary_keys(o, design);
+  // Members spread over the visible GPUs: contiguous groups, one runner (context) and one host
+  // thread per device.
+  int groups = 1;
+  if (o.backend == "cuda") groups = std::max(1, mpm::cuda_device_count());
+  if (o.devices > 0) groups = std::min(groups, o.devices);
+  groups = static_cast<int>(std::min<long>(groups, design.members));
   std::vector<mpm::SceneSetup> ms;
   ms.push_back(member_setup(o, design, 0));
-  check_memory(o, design, ms[0]);
+  check_memory(o, design, ms[0], groups);
   for (long k = 1; k < design.members; ++k) ms.push_back(member_setup(o, design, k));
-  mpm::SceneSetup su;
-  try {
-    su = mpm::make_ensemble_setup(ms);
-  } catch (const mpm::SceneError& e) {
-    throw io::InputError(io::where(o.design) + e.what());
+  const long per = (design.members + groups - 1) / groups;
+  std::vector<std::vector<mpm::SceneSetup>> group_ms(groups);
+  std::vector<mpm::SceneSetup> group_su(groups);
+  for (int g = 0; g < groups; ++g) {
+    const long a = g * per, b = std::min<long>(design.members, a + per);
+    group_ms[g].assign(ms.begin() + a, ms.begin() + b);
+    try {
+      group_su[g] = mpm::make_ensemble_setup(group_ms[g]);
+    } catch (const mpm::SceneError& e) {
+      throw io::InputError(io::where(o.design) + e.what());
+    }
   }
+  ms.clear();
   std::string out = o.out;
   if (out.empty()) out = "ensemble_out/" + fs::path(o.design).stem().string();
   io::RunFolder folder(out, o.force ? io::FolderUse::Force : io::FolderUse::Fresh, mpm::kCheckpointFile);
-  auto runner = make_runner(su, o.backend, o.cuda);
-  const mpm::Scene& sc = su.scene;
-  std::fprintf(stderr, "granflow ensemble: %s, %ld members (%s design of %s)\n  %ld particles, %ld grid nodes in all, %s; %s\n",
-               sc.name.c_str(), design.members, design.method.c_str(), o.design.c_str(), runner->particles(),
-               runner->nodes(), runner->device().c_str(), mpm::memory_line(su).c_str());
-  mpm::EnsembleOptions eo;
-  eo.out_dir = out;
-  eo.progress = !o.quiet;
-  eo.frames = o.frames;
-  eo.max_span = o.span;
-  eo.interrupt = &g_signal;
-  mpm::EnsembleSummary s;
+  const mpm::Scene& sc = group_su[0].scene;
+  std::vector<mpm::EnsembleSummary> parts(groups);
+  std::vector<std::exception_ptr> errors(groups);
+  long particles = 0, nodes = 0;
+  std::string device;
   {
     SignalGuard guard;
-    s = mpm::run_ensemble(su, ms, *runner, eo);
+    auto run_group = [&](int g) {
+      try {
+        if (o.backend == "cuda") mpm::cuda_select_device(g);
+        auto runner = make_runner(group_su[g], o.backend, o.cuda);
+        if (g == 0) {
+          device = runner->device() + (groups > 1 ? " (and " + std::to_string(groups - 1) + " more)" : "");
+          std::fprintf(stderr, "granflow ensemble: %s, %ld members (%s design of %s) on %d device%s\n  %s; %s\n",
+                       sc.name.c_str(), design.members, design.method.c_str(), o.design.c_str(), groups,
+                       groups > 1 ? "s" : "", runner->device().c_str(), mpm::memory_line(group_su[0]).c_str());
+        }
+        mpm::EnsembleOptions eo;
+        eo.out_dir = out;
+        eo.progress = !o.quiet && g == 0;
+        eo.frames = o.frames;
+        eo.max_span = o.span;
+        eo.interrupt = &g_signal;
+        eo.first_member = static_cast<int>(g * per);
+        parts[g] = mpm::run_ensemble(group_su[g], group_ms[g], *runner, eo);
+      } catch (...) {
+        errors[g] = std::current_exception();
+      }
+    };
+    std::vector<std::thread> threads;
+    for (int g = 1; g < groups; ++g) threads.emplace_back(run_group, g);
+    run_group(0);
+    for (auto& t : threads) t.join();
+  }
+  for (auto& e : errors)
+    if (e) std::rethrow_exception(e);
+  mpm::EnsembleSummary s = parts[0];
+  for (int g = 1; g < groups; ++g) {
+    s.members.insert(s.members.end(), parts[g].members.begin(), parts[g].members.end());
+    s.wall_s = std::max(s.wall_s, parts[g].wall_s);
+    s.interrupted = s.interrupted ? s.interrupted : parts[g].interrupted;
+  }
+  for (const auto& su : group_su) {
+    particles += su.particles.n;
+    nodes += su.n_nodes * su.members;
   }
   io::write_file(out + "/summary.csv", summary_csv(design, sc, s));
   {
@@ -173,9 +217,10 @@ void run_ensemble_cmd(const EnsembleCmd& o) {
   }
   long failed = 0;
   for (const auto& m : s.members) failed += m.ok ? 0 : 1;
-  const double updates = double(runner->particles()) * double(s.steps);
+  const double updates = double(particles) * double(s.steps);
   std::printf("scene: %s\nmembers: %ld (%ld failed)\nparticles: %ld\nsteps: %ld\nsimulated: %.6g s\nwall: %.3f s\n",
-              sc.name.c_str(), design.members, failed, runner->particles(), s.steps, s.t_end, s.wall_s);
+              sc.name.c_str(), design.members, failed, particles, s.steps, s.t_end, s.wall_s);
+  std::printf("device: %s\ngrid nodes: %ld\n", device.c_str(), nodes);
   std::printf("particle-updates/s: %.4g\nwall per step: %.2f us\n", s.wall_s > 0 ? updates / s.wall_s : 0.0,
               s.steps > 0 ? 1e6 * s.wall_s / s.steps : 0.0);
   for (size_t k = 0; k < s.members.size(); ++k)
@@ -219,6 +264,8 @@ void register_ensemble(CLI::App& app) {
   cmd->add_flag("--no-png", o->no_png, "do not call scripts/plot_ensemble.py");
   cmd->add_flag("--quiet", o->quiet, "no progress line");
   cmd->add_option("--span", o->span, "most steps queued without a host round-trip")->check(CLI::PositiveNumber);
+  cmd->add_option("--devices", o->devices, "CUDA: spread the members over at most N visible GPUs (default: all)")
+      ->check(CLI::PositiveNumber);
   o->cuda.add(cmd);
   cmd->callback([o] { run_ensemble_cmd(*o); });
 }

@@ -16,6 +16,8 @@ int main(int argc, char** argv) {
 #ifdef GRANFLOW_WITH_SOLVERS
   granflow::cli::register_element(app);
   granflow::cli::register_figures(app);
+#endif
+#ifdef GRANFLOW_WITH_CALIBRATION
   granflow::cli::register_calibrate(app);
 #endif
   granflow::cli::register_mpm(app);

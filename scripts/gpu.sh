@@ -6,7 +6,8 @@
 #   scripts/gpu.sh PART [PART...]
 #
 #   build          configure and build $BUILD: granflow, mpm_cuda_check, constitutive_device_host
-#   check          host/device constitutive test; GPU against CPU twin (mpm_cuda_check --short)
+#   check          host/device constitutive test; GPU against CPU twin (mpm_cuda_check --short;
+#                  CHECK_ARGS=--ensembles: the ensemble cases only)
 #   paper          the paper's scenes at full size: benchmarks; 1 mm column, both models and the
 #                  three precisions; 5 mm flume at dt 1e-5, both models, and at the paper's 1e-6
 #                  (first 0.4 s); transfer and shape variants of the 1 mm column
@@ -24,6 +25,8 @@
 #                  members of the 5 mm column (fp32, fp64), 16 of the 1 mm column (fp32)
 #   study          the flume parameter study (mpm/scenes/ensembles/flume_study.toml, 64 members,
 #                  lifting gate, 0.8 s of flow, CFL step), summary in study_summary.csv
+#   ensemble-diag  the 64-member column sampled sparsely; a 1 mm member alone, twice
+#   calibrate      data/calibration/bui_column.toml (5 mm), then the 1 mm column with the fitted set
 #
 # Results go to $GPU_OUT, else $OUT, else out/gpu: PART.log (each command, printed before it
 # runs, and its output), series.csv, PART_csv.tgz (the runs' CSV outputs); stdout has the
@@ -184,7 +187,7 @@ part_check() {
   rc1=$?
   echo "  constitutive_device_host: exit code $rc1 (0: all OK)"
   tail -3 "$R/device_host.txt"
-  x 170 "$R/cuda_check.txt" env OMP_NUM_THREADS=8 "$B/mpm_cuda_check" --short
+  x 300 "$R/cuda_check.txt" env OMP_NUM_THREADS=8 "$B/mpm_cuda_check" --short ${CHECK_ARGS:-}
   rc2=$?
   echo "  mpm_cuda_check --short: exit code $rc2 (0: all OK; 77: no GPU; run-out/height within 0.5 %, points in original order)"
   grep -E "OK|FAIL" "$R/cuda_check.txt" | cut -c1-160
@@ -343,6 +346,32 @@ part_study() {
   done
 }
 
+# What the ensemble's time per step is made of: the 64-member 5 mm column sampled every 50 ms
+# instead of 1 ms; the 1 mm member 0 of the 16-member ensemble alone, twice (run-to-run spread).
+part_ensemble_diag() {
+  ens col5_64_fp32_sparse 120 "$COL" "$SC/ensembles/column_bench_64.toml" --set grid.h=0.005 --set time.dt=5e-5 \
+    --set output.series_dt=0.05 --precision fp32
+  local k
+  for k in a b; do
+    run "col1_fp32_m0_$k" 60 "$COL" --precision fp32 --set frictional.phi_c_deg=21.312444480854175 \
+      --set material.e0=0.9690217603212233
+  done
+}
+
+# The scene calibration against Bui et al.'s deposit (data/calibration/bui_column.toml, 5 mm), then
+# the 1 mm column with the fitted set and with the start set (their final profiles in $RES).
+part_calibrate() {
+  local t0=$SECONDS
+  x 420 "$R/bui.txt" "$G" calibrate data/calibration/bui_column.toml --out "$R/bui_fit" --force --no-plot --quiet
+  echo "  bui_column calibration: exit $?, $((SECONDS - t0)) s" | tee -a "$log"
+  sed -n '/^parameter /,/^$/p; /^curve /,/^$/p; /^ iteration/,/^$/p; /^posterior over/,/^best final/p' "$R/bui.txt"
+  rm -rf "$RES/bui_fit" && cp -r "$R/bui_fit" "$RES/bui_fit"
+  run bui_fit_1mm 60 "$COL" --params "$R/bui_fit/bui_column.toml"
+  run bui_start_1mm 60 "$COL"
+  cp "$R/bui_fit_1mm/profile_final.csv" "$RES/bui_fit_1mm_profile.csv"
+  cp "$R/bui_start_1mm/profile_final.csv" "$RES/bui_start_1mm_profile.csv"
+}
+
 part_profile() {
   local ncu
   ncu=$(command -v ncu || ls /usr/local/cuda*/bin/ncu /opt/nvidia/nsight-compute/*/ncu 2>/dev/null | head -1)
@@ -400,8 +429,8 @@ main() {
   local part fn f t0 status=0
   for part in "$@"; do
     case $part in
-      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | study) ;;
-      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble study)" >&2
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-diag | study | calibrate) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-diag study calibrate)" >&2
          return 2 ;;
     esac
   done

@@ -152,6 +152,7 @@ std::vector<DataGroup> select_data(const DataSelection& sel, const std::string& 
       c.model_output = sel.targets[t].second;
       c.abscissa = sel.abscissa;
       c.weight = sel.weight * sel.target_weights[t];
+      if (t < sel.target_sd.size()) c.sd = sel.target_sd[t];
       const auto& y = table.column(c.data_column);
       for (std::size_t k = 0; k < rr.size();) {
         std::size_t m = k + 1;

@@ -7,7 +7,9 @@
 
 #include <unistd.h>
 
+#ifdef GRANFLOW_HAVE_NLOPT
 #include <nlopt.hpp>
+#endif
 
 #include "granflow/calibration/fit.hpp"
 #include <granflow/io/input_error.hpp>
@@ -18,6 +20,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+#ifdef GRANFLOW_HAVE_NLOPT
 nlopt::algorithm algorithm_of(const std::string& name) {
   static const std::map<std::string, nlopt::algorithm> m = {
       {"GN_CRS2_LM", nlopt::GN_CRS2_LM}, {"GN_ISRES", nlopt::GN_ISRES},     {"GN_DIRECT_L", nlopt::GN_DIRECT_L},
@@ -25,6 +28,8 @@ nlopt::algorithm algorithm_of(const std::string& name) {
       {"LN_SBPLX", nlopt::LN_SBPLX},     {"LN_NELDERMEAD", nlopt::LN_NELDERMEAD}, {"LN_COBYLA", nlopt::LN_COBYLA}};
   return m.at(name);
 }
+
+#endif
 
 // Counts evaluations, keeps the best point, prints the progress line.
 struct Tracker {
@@ -61,6 +66,7 @@ struct Tracker {
   }
 };
 
+#ifdef GRANFLOW_HAVE_NLOPT
 double nlopt_callback(unsigned, const double* x, double*, void* data) {
   auto* t = static_cast<Tracker*>(data);
   return (*t)(std::vector<double>(x, x + t->obj.dimension()));
@@ -93,11 +99,73 @@ std::string run(nlopt::opt& opt, Tracker& tr, std::vector<double> u0, double dea
   }
 }
 
+double function_callback(unsigned n, const double* x, double*, void* data) {
+  const auto* f = static_cast<const std::function<double(const std::vector<double>&)>*>(data);
+  const double v = (*f)(std::vector<double>(x, x + n));
+  return std::isfinite(v) ? v : 1e300;
+}
+#endif
+
 }  // namespace
+
+namespace detail {
+
+bool polish_bobyqa(const std::function<double(const std::vector<double>&)>& f, std::vector<double>& u, double& fu,
+                   long max_evaluations, const std::vector<double>& step, double xtol_rel, std::string& note) {
+#ifdef GRANFLOW_HAVE_NLOPT
+  const std::size_t n = u.size();
+  long evaluations = 0;
+  std::vector<double> best = u;
+  double fbest = fu;
+  const std::function<double(const std::vector<double>&)> counted = [&](const std::vector<double>& x) {
+    const double v = f(x);
+    ++evaluations;
+    if (std::isfinite(v) && v < fbest) {
+      fbest = v;
+      best = x;
+    }
+    return v;
+  };
+  nlopt::opt l(nlopt::LN_BOBYQA, static_cast<unsigned>(n));
+  l.set_lower_bounds(std::vector<double>(n, 0.0));
+  l.set_upper_bounds(std::vector<double>(n, 1.0));
+  l.set_min_objective(function_callback, const_cast<std::function<double(const std::vector<double>&)>*>(&counted));
+  l.set_maxeval(static_cast<int>(max_evaluations));
+  l.set_xtol_rel(xtol_rel);
+  l.set_initial_step(step);
+  std::string reason = "converged";
+  std::vector<double> x = u;
+  double fx = 0;
+  try {
+    const nlopt::result r = l.optimize(x, fx);
+    if (r == nlopt::MAXEVAL_REACHED) reason = "evaluation budget";
+  } catch (const nlopt::roundoff_limited&) {
+    reason = "roundoff limited";
+  } catch (const std::invalid_argument& e) {
+    reason = std::string("NLopt rejected the problem: ") + e.what();
+  }
+  note = "LN_BOBYQA from the best member, " + std::to_string(evaluations) + " evaluations (" + reason + ")";
+  u = best;
+  fu = fbest;
+  return true;
+#else
+  (void)f, (void)u, (void)fu, (void)max_evaluations, (void)step, (void)xtol_rel;
+  note = "skipped: this build has no NLopt";
+  return false;
+#endif
+}
+
+}  // namespace detail
 
 FitResult fit(const Objective& obj, const FitOptions& options) {
   const CalibrationJob& job = obj.job();
   const AlgorithmSpec& a = job.algorithm;
+  if (!options.evaluate_only && a.method == "ensemble") return fit_ensemble(obj, options);
+#ifndef GRANFLOW_HAVE_NLOPT
+  if (!options.evaluate_only)
+    throw io::InputError(io::where(job.file, a.method_line) +
+                         "this build has no NLopt: use [algorithm] method = \"ensemble\"");
+#endif
   const std::size_t n = obj.dimension();
   FitResult res;
   res.threads = obj.threads();
@@ -112,7 +180,9 @@ FitResult fit(const Objective& obj, const FitOptions& options) {
 
   if (options.evaluate_only) {
     reason = "evaluation only (--evaluate)";
-  } else if (a.global != "none") {
+  }
+#ifdef GRANFLOW_HAVE_NLOPT
+  else if (a.global != "none") {
     nlopt::srand(a.seed);  // the stochastic global methods draw from NLopt's generator
     nlopt::opt g(algorithm_of(a.global), static_cast<unsigned>(n));
     g.set_maxeval(static_cast<int>(a.global_evaluations));
@@ -147,6 +217,7 @@ FitResult fit(const Objective& obj, const FitOptions& options) {
     }
     res.local_evaluations = tr.evaluations - res.global_evaluations;
   }
+#endif
   tr.phase = "done";
   tr.print(true);
   res.evaluations = tr.evaluations;

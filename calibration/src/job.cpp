@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <set>
 
 #include "granflow/calibration/experiment.hpp"
@@ -131,6 +132,16 @@ Parsed read_experiment_common(io::TomlTable& t, const std::string& job_file, std
     }
     w->finish();
   }
+  s.target_sd.assign(s.targets.size(), std::numeric_limits<double>::quiet_NaN());
+  if (auto w = t.optional_table("target_sd")) {  // the ensemble method's likelihood, data units
+    for (const auto& [k, node] : w->raw()) {
+      const std::string key(k.str());
+      auto it = std::find_if(s.targets.begin(), s.targets.end(), [&](const auto& tg) { return tg.first == key; });
+      if (it == s.targets.end()) w->fail(key, "not a target column of this experiment");
+      s.target_sd[it - s.targets.begin()] = w->number(key, io::Bounds::positive());
+    }
+    w->finish();
+  }
   if (p.kind == "steady_shear") {
     if (auto ss = t.optional_table("steady_shear")) {
       p.ss.dimensionless = ss->choice("units", {"dimensionless", "si"}, "dimensionless") == "dimensionless";
@@ -194,6 +205,8 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
   }
   if (auto a = root.optional_table("algorithm")) {
     AlgorithmSpec& g = job.algorithm;
+    g.method = a->choice("method", {"nlopt", "ensemble"}, g.method);
+    g.method_line = a->line(a->has("method") ? "method" : "");
     g.global = a->choice("global", kGlobal, g.global);
     g.local = a->choice("local", kLocal, g.local);
     g.global_evaluations = a->integer_or("global_evaluations", g.global_evaluations, 1, 100000000);
@@ -204,8 +217,23 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
     g.xtol_rel = a->number_or("xtol_rel", g.xtol_rel, io::Bounds::open(0.0, 1.0));
     g.ftol_rel = a->number_or("ftol_rel", g.ftol_rel, io::Bounds::open(0.0, 1.0));
     g.fd_step = a->number_or("fd_step", g.fd_step, io::Bounds::open(0.0, 0.1));
-    if (g.global == "none" && g.local == "none") a->fail("local", "global and local cannot both be 'none'");
+    if (g.method == "nlopt" && g.global == "none" && g.local == "none")
+      a->fail("local", "global and local cannot both be 'none'");
     a->finish();
+  }
+  if (auto e = root.optional_table("ensemble")) {
+    EnsembleSpec& s = job.ensemble;
+    s.members = e->integer_or("members", s.members, 2, 1000000);
+    s.iterations = static_cast<int>(e->integer_or("iterations", s.iterations, 1, 100));
+    s.seed = static_cast<unsigned long>(e->integer_or("seed", static_cast<long>(s.seed), 0, 4294967295L));
+    s.polish = e->boolean_or("polish", s.polish);
+    s.polish_evaluations = e->integer_or("polish_evaluations", s.polish_evaluations, 1, 100000000);
+    s.transform = e->choice("transform", {"probit", "logit"}, s.transform);
+    e->finish();
+  }
+  if (auto l = root.optional_table("likelihood")) {
+    job.likelihood.relative_sd = l->number_or("relative_sd", job.likelihood.relative_sd, io::Bounds::positive());
+    l->finish();
   }
 
   auto exps = root.array_of_tables("experiments");

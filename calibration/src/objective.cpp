@@ -153,6 +153,54 @@ Evaluation Objective::evaluate(const std::vector<double>& theta) const {
       pred[e].error = ex.what();
     }
   });
+  return assess(pred);
+}
+
+std::vector<std::vector<Prediction>> Objective::predict_many(const std::vector<std::vector<double>>& thetas) const {
+  const auto& exps = job_.experiments;
+  const std::size_t N = thetas.size(), E = exps.size();
+  std::vector<io::ParameterSet> sets;
+  sets.reserve(N);
+  for (const auto& t : thetas) sets.push_back(parameters_at(t));
+  std::vector<std::vector<Prediction>> pred(N, std::vector<Prediction>(E));
+  std::vector<std::size_t> unbatched;
+  for (std::size_t e = 0; e < E; ++e) {
+    if (!exps[e]->batched()) {
+      unbatched.push_back(e);
+      continue;
+    }
+    std::vector<Prediction> b;
+    std::string error;
+    try {
+      b = exps[e]->predict_batch(sets);
+      if (b.size() != N) error = "predicted " + std::to_string(b.size()) + " of " + std::to_string(N) + " sets";
+    } catch (const std::exception& ex) {
+      error = ex.what();
+    }
+    for (std::size_t i = 0; i < N; ++i) {
+      if (error.empty()) {
+        pred[i][e] = std::move(b[i]);
+      } else {
+        pred[i][e].ok = false;
+        pred[i][e].error = error;
+      }
+    }
+  }
+  // One task per set x experiment, each writing its own slot.
+  const std::size_t U = unbatched.size();
+  pool_.parallel_for(N * U, [&](std::size_t k) {
+    const std::size_t i = k / U, e = unbatched[k % U];
+    try {
+      pred[i][e] = exps[e]->predict(sets[i]);
+    } catch (const std::exception& ex) {
+      pred[i][e].ok = false;
+      pred[i][e].error = ex.what();
+    }
+  });
+  return pred;
+}
+
+Evaluation Objective::assess(const std::vector<Prediction>& pred) const {
   Evaluation ev;
   ev.residuals.reserve(n_residuals_);
   const bool logm = job_.misfit.scale == MisfitScale::Log;
@@ -163,11 +211,12 @@ Evaluation Objective::evaluate(const std::vector<double>& theta) const {
     CurveEvaluation ce;
     const std::size_t n = cv.x.size();
     const double f = std::sqrt(cv.weight / static_cast<double>(n));
-    if (!p.ok) {
-      ce.failure = p.error;
+    const std::size_t k = curves_[c].curve;
+    if (!p.ok || p.values.size() <= k || p.values[k].size() != n) {
+      ce.failure = !p.ok ? p.error : "the experiment returned no values for this curve's " + std::to_string(n) + " points";
       ce.model.assign(n, std::numeric_limits<double>::quiet_NaN());
     } else {
-      ce.model = p.values[curves_[c].curve];
+      ce.model = p.values[k];
     }
     double ss_res = 0, ss_tot = 0, mean = 0, used = 0;
     for (double y : cv.y) mean += y;

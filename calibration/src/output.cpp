@@ -1,4 +1,5 @@
 // Outputs of a fit: the fitted parameter set, reports, curves for plotting and the PNG.
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -6,8 +7,8 @@
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <sstream>
-
 
 #include "granflow/calibration/experiment.hpp"
 #include "granflow/calibration/fit.hpp"
@@ -101,9 +102,14 @@ std::string format_report(const Objective& obj, const FitResult& r) {
                                                 : job.misfit.normalise == Normalise::Range ? "divided by its range"
                                                                                            : "unscaled")
      << ", weighted\n";
-  os << "algorithm: global " << job.algorithm.global << " (" << r.global_evaluations << " evaluations), local "
-     << job.algorithm.local << " x" << job.algorithm.starts << " (" << r.local_evaluations << " evaluations), seed "
-     << job.algorithm.seed << "\n";
+  if (r.ensemble)
+    os << "algorithm: ensemble method (ES-MDA), " << job.ensemble.members << " members x "
+       << r.ensemble->result.iterations.size() << " batches (" << r.global_evaluations << " evaluations), polish "
+       << r.local_evaluations << " evaluations, seed " << job.ensemble.seed << "\n";
+  else
+    os << "algorithm: global " << job.algorithm.global << " (" << r.global_evaluations << " evaluations), local "
+       << job.algorithm.local << " x" << job.algorithm.starts << " (" << r.local_evaluations << " evaluations), seed "
+       << job.algorithm.seed << "\n";
   os << "stopped by: " << r.stop_reason << "\n";
   os << "misfit: start " << num(r.at_start.misfit, 8) << " -> final " << num(r.at_best.misfit, 8) << "   ("
      << r.evaluations << " evaluations + " << r.identifiability.evaluations << " for the Jacobian, " << num(r.seconds, 4)
@@ -119,7 +125,8 @@ std::string format_report(const Objective& obj, const FitResult& r) {
        << (p.log ? "log" : "lin") << std::setw(10) << shown(r.identifiability.rel_sd[j], 3) << "  "
        << (r.on_bound[j] < 0 ? "ON LOWER BOUND" : r.on_bound[j] > 0 ? "ON UPPER BOUND" : "") << "\n";
   }
-  os << "(rel.sd: approximate relative standard deviation from the Jacobian at the optimum and the final misfit)\n";
+  os << "(" << (r.ensemble ? "fitted: the best final member of the ensemble, polished; " : "")
+     << "rel.sd: approximate relative standard deviation from the Jacobian at the optimum and the final misfit)\n";
   for (std::size_t j = 0; j < job.free.size(); ++j)
     if (!r.identifiability.undefined[j].empty())
       os << "rel.sd of " << job.free[j].key << " undefined: " << r.identifiability.undefined[j] << "\n";
@@ -169,10 +176,152 @@ std::string format_report(const Objective& obj, const FitResult& r) {
       os << "WARNING: |correlation(" << job.free[j].key << ", " << job.free[k].key << ")| = "
          << num(std::fabs(id.correlation(j, k)), 4) << " > 0.95: these data do not separate them\n";
   }
+  if (r.ensemble) os << "\n" << format_ensemble_report(obj, r);
+  return os.str();
+}
+
+std::string format_ensemble_report(const Objective& obj, const FitResult& r) {
+  const CalibrationJob& job = obj.job();
+  const EnsembleReport& e = *r.ensemble;
+  const EnsembleResult& er = e.result;
+  const std::size_t m = e.data.size(), N = er.posterior.size();
+  std::size_t given = 0;
+  for (std::size_t c = 0; c < obj.curves().size(); ++c) given += std::isfinite(obj.curve(c).sd);
+  std::ostringstream os;
+  os << "ensemble method: ES-MDA (Emerick & Reynolds 2013), " << N << " members, " << job.ensemble.iterations
+     << " iterations with inflation alpha = " << job.ensemble.iterations << ", seed " << job.ensemble.seed
+     << "; prior uniform within the bounds (in log for log = true), Latin hypercube; update in z = "
+     << job.ensemble.transform << "(u)\n";
+  os << "likelihood: Gaussian in " << (job.misfit.scale == MisfitScale::Log ? "ln(data)" : "data units") << ", " << m
+     << " data; sd " << (given ? std::to_string(given) + " curve(s) from target_sd, the others " : "")
+     << "relative_sd = " << num(job.likelihood.relative_sd)
+     << (job.misfit.scale == MisfitScale::Log ? " (of ln y)" : " x each curve's RMS") << "\n";
+  os << "misfit: chi-square, sum ((model - data) / sd)^2 over the data (about " << m
+     << " when the model fits within the sd)\n";
+  os << std::setw(10) << "iteration" << std::setw(16) << "mean misfit" << std::setw(16) << "best misfit" << std::setw(8)
+     << "failed" << std::setw(11) << "seconds" << "\n";
+  for (std::size_t i = 0; i < er.iterations.size(); ++i) {
+    const EnsembleIteration& it = er.iterations[i];
+    os << std::setw(10) << i << std::setw(16) << shown(it.mean_misfit, 6) << std::setw(16) << shown(it.best_misfit, 6)
+       << std::setw(8) << it.failed << std::setw(11) << num(it.seconds, 4)
+       << (i == 0 ? "  prior" : i + 1 == er.iterations.size() ? "  posterior" : "") << "\n";
+  }
+  if (er.replaced > 0)
+    os << er.replaced << " failed member(s) were replaced by copies of computed ones before the updates\n";
+  for (std::size_t i = 0; i < N; ++i)
+    if (!er.ok[i]) {
+      os << "final member " << i << " failed: " << er.iterations.back().why[i] << "\n";
+      break;
+    }
+  long ok = 0;
+  for (char c : er.ok) ok += c != 0;
+  os << "\nposterior over the " << ok << " computed final members (q05, q95: 5 % and 95 % quantiles)\n";
+  os << std::left << std::setw(24) << "parameter" << std::right << std::setw(13) << "mean" << std::setw(13) << "median"
+     << std::setw(13) << "q05" << std::setw(13) << "q95" << std::setw(12) << "sd" << std::setw(13) << "best" << std::setw(13)
+     << "fitted" << "\n";
+  for (std::size_t j = 0; j < job.free.size(); ++j) {
+    const ParameterSummary& p = er.summary[j];
+    os << std::left << std::setw(24) << job.free[j].key << std::right << std::setw(13) << shown(p.mean) << std::setw(13)
+       << shown(p.median) << std::setw(13) << shown(p.q05) << std::setw(13) << shown(p.q95) << std::setw(12)
+       << shown(p.sd, 4) << std::setw(13) << num(e.best[j]) << std::setw(13) << num(r.theta[j]) << "\n";
+  }
+  os << "posterior correlation:\n" << std::left << std::setw(24) << "" << std::right;
+  for (const auto& p : job.free) os << std::setw(14) << p.key.substr(p.key.find('.') + 1);
+  os << "\n";
+  for (std::size_t j = 0; j < job.free.size(); ++j) {
+    os << std::left << std::setw(24) << job.free[j].key << std::right;
+    for (std::size_t k = 0; k < job.free.size(); ++k) os << std::setw(14) << shown(er.correlation[j][k], 3);
+    os << "\n";
+  }
+  os << "best final member: " << er.best << ", misfit " << num(e.best_misfit, 8) << "; polish: " << e.polish
+     << "; written set: misfit " << num(e.fitted_misfit, 8) << " (" << num(e.fitted_misfit / static_cast<double>(m), 4)
+     << " per datum)\n";
+  if (e.fitted_misfit > 4.0 * static_cast<double>(m))
+    os << "WARNING: the best misfit is " << num(e.fitted_misfit / static_cast<double>(m), 3)
+       << " per datum (about 1 expected): the model does not fit within the sd, so the intervals are too narrow; "
+          "raise likelihood.relative_sd (or target_sd) to the model's error\n";
+  for (std::size_t j = 0; j < job.free.size(); ++j) {
+    const ParameterSummary& p = er.summary[j];
+    const FreeParameter& f = job.free[j];
+    const double w = f.upper - f.lower;
+    if (p.q05 - f.lower < 0.01 * w || f.upper - p.q95 < 0.01 * w)
+      os << "note: the 5-95 % interval of " << f.key << " reaches its " << (p.q05 - f.lower < 0.01 * w ? "lower" : "upper")
+         << " bound: the data leave it to the prior there\n";
+  }
   return os.str();
 }
 
 namespace {
+
+// posterior.csv, posterior_summary.csv, posterior_correlation.csv, iterations.csv, ensemble_curves.csv
+void write_ensemble_files(const Objective& obj, const FitResult& r, const fs::path& tmp) {
+  const CalibrationJob& job = obj.job();
+  const EnsembleReport& e = *r.ensemble;
+  const EnsembleResult& er = e.result;
+  const std::size_t n = job.free.size(), N = er.posterior.size();
+  std::ostringstream pc, sc, cc, ic, ec;
+  pc << std::setprecision(12) << "member";
+  for (const auto& p : job.free) pc << "," << p.key;
+  pc << ",misfit,ok\n";
+  for (std::size_t i = 0; i < N; ++i) {
+    pc << i;
+    for (std::size_t j = 0; j < n; ++j) pc << "," << Cell{er.posterior[i][j]};
+    pc << "," << Cell{er.iterations.back().misfit[i]} << "," << (er.ok[i] ? 1 : 0) << "\n";
+  }
+  write_file(tmp / "posterior.csv", pc.str());
+  sc << std::setprecision(12) << "key,mean,median,q05,q95,sd,best,fitted\n";
+  for (std::size_t j = 0; j < n; ++j) {
+    const ParameterSummary& p = er.summary[j];
+    sc << job.free[j].key << "," << Cell{p.mean} << "," << Cell{p.median} << "," << Cell{p.q05} << "," << Cell{p.q95}
+       << "," << Cell{p.sd} << "," << Cell{e.best[j]} << "," << Cell{r.theta[j]} << "\n";
+  }
+  write_file(tmp / "posterior_summary.csv", sc.str());
+  cc << std::setprecision(8) << "parameter";
+  for (const auto& p : job.free) cc << "," << p.key;
+  cc << "\n";
+  for (std::size_t j = 0; j < n; ++j) {
+    cc << job.free[j].key;
+    for (std::size_t k = 0; k < n; ++k) cc << "," << Cell{er.correlation[j][k]};
+    cc << "\n";
+  }
+  write_file(tmp / "posterior_correlation.csv", cc.str());
+  ic << std::setprecision(10) << "iteration,mean_misfit,best_misfit,failed,seconds\n";
+  for (std::size_t i = 0; i < er.iterations.size(); ++i) {
+    const EnsembleIteration& it = er.iterations[i];
+    ic << i << "," << Cell{it.mean_misfit} << "," << Cell{it.best_misfit} << "," << it.failed << "," << Cell{it.seconds}
+       << "\n";
+  }
+  write_file(tmp / "iterations.csv", ic.str());
+  // Each point: data, its sd in data units, the 5/50/95 % quantiles of the final members' model and the best member.
+  ec << std::setprecision(10)
+     << "experiment,data_column,model_output,abscissa,quantity,x,data,sd,q05,median,q95,best,fitted\n";
+  const bool logm = job.misfit.scale == MisfitScale::Log;
+  std::size_t k = 0;
+  std::vector<double> v;
+  for (std::size_t c = 0; c < obj.curves().size(); ++c) {
+    const Curve& cv = obj.curve(c);
+    const std::string& q = job.experiments[obj.curves()[c].experiment]->abscissa_quantity;
+    for (std::size_t i = 0; i < cv.x.size(); ++i, ++k) {
+      v.clear();
+      for (std::size_t mbr = 0; mbr < N; ++mbr)
+        if (er.ok[mbr] && std::isfinite(e.members[mbr].curves[c].model[i])) v.push_back(e.members[mbr].curves[c].model[i]);
+      std::sort(v.begin(), v.end());
+      const auto qt = [&](double p) {
+        if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+        const double pos = p * static_cast<double>(v.size() - 1);
+        const std::size_t lo = static_cast<std::size_t>(pos), hi = std::min(lo + 1, v.size() - 1);
+        return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
+      };
+      const double sd = logm ? e.sd[k] * cv.y[i] : e.sd[k];
+      ec << csv_quote(cv.experiment) << "," << cv.data_column << "," << cv.model_output << "," << cv.abscissa << "," << q
+         << "," << Cell{cv.x[i]} << "," << Cell{cv.y[i]} << "," << Cell{sd} << "," << Cell{qt(0.05)} << ","
+         << Cell{qt(0.5)} << "," << Cell{qt(0.95)} << ","
+         << Cell{e.members[static_cast<std::size_t>(er.best)].curves[c].model[i]} << "," << Cell{r.at_best.curves[c].model[i]}
+         << "\n";
+    }
+  }
+  write_file(tmp / "ensemble_curves.csv", ec.str());
+}
 
 void write_staged(const Objective& obj, const FitResult& r, io::StagedFolder& folder, bool plot) {
   const CalibrationJob& job = obj.job();
@@ -227,6 +376,7 @@ void write_staged(const Objective& obj, const FitResult& r, io::StagedFolder& fo
     kc << "\n";
   }
   write_file(tmp / "correlation.csv", kc.str());
+  if (r.ensemble) write_ensemble_files(obj, r, tmp);
 
   if (plot) {
     const std::string py = python_with_matplotlib();
@@ -244,6 +394,13 @@ void write_staged(const Objective& obj, const FitResult& r, io::StagedFolder& fo
         std::error_code ec;
         fs::remove(tmp / "fit.png", ec);  // whatever it left is not a finished plot
         std::cerr << "calibrate: the plot script failed; curves.csv holds the curves\n";
+      }
+      const std::string post = std::string(GRANFLOW_SOURCE_DIR) + "/scripts/plot_posterior.py";
+      if (r.ensemble && std::system((py + " '" + post + "' '" + tmp.string() + "' '" + title + "'").c_str()) != 0) {
+        std::error_code ec;
+        fs::remove(tmp / "posterior.png", ec);
+        fs::remove(tmp / "ensemble_fit.png", ec);
+        std::cerr << "calibrate: the posterior plot script failed; posterior.csv and ensemble_curves.csv hold the data\n";
       }
     }
   }

@@ -2,6 +2,9 @@
 // of binning.hpp (cub radix sort, gather into a second buffer, copied back so kernel arguments
 // and graphs stay valid); ids_ keeps each slot's original index (inv_ its inverse), so that
 // everything leaving the backend is put back into the original order.
+// Ensembles: the key of a slot of member k is k * sort_key_bound + sort_key, so every sort
+// keeps member k's points in slots [k P, (k + 1) P) and the member of slot p stays p / P
+// (kernels.hpp, Members); the keys are 64 bits wide there.
 #pragma once
 
 #include <cuda_runtime.h>
@@ -26,6 +29,19 @@ __global__ void sort_key_kernel(ParticleView<S> pv, GridDesc<D, S> g, std::uint3
   slots[p] = static_cast<std::uint32_t>(p);
 }
 
+// Member-major keys of an ensemble: slot p belongs to member p / P (members_particles).
+template <int D, class S, class Shape, bool kColl>
+__global__ void member_sort_key_kernel(ParticleView<S> pv, GridDesc<D, S> g, long members_particles,
+                                       std::uint64_t member_key_stride, std::uint64_t* keys, std::uint32_t* slots) {
+  const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  if (p >= pv.n) return;
+  S xi[D];
+  int base[D];
+  particle_base<D, S, Shape, kColl>(pv, p, g, xi, base);
+  keys[p] = static_cast<std::uint64_t>(p / members_particles) * member_key_stride + sort_key<D>(base, g.nodes);
+  slots[p] = static_cast<std::uint32_t>(p);
+}
+
 template <class S>
 __global__ void gather_kernel(ParticleView<S> src, ParticleView<S> dst, int nfields, const std::uint32_t* perm,
                               const std::uint32_t* ids_src, std::uint32_t* ids_dst) {
@@ -47,15 +63,21 @@ __global__ void iota_kernel(std::uint32_t* a, long n) {
 }
 
 // Reorders the particles by cell key (binning.hpp): slot i receives slot perm[i].
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline void CudaRunner<D, S, Model, Shape, kBoundary>::enqueue_sort() {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_sort() {
   const unsigned b = blocks_for(n_, kAuxBlock);
-  sort_key_kernel<D, S, Shape, kColl><<<b, kAuxBlock, 0, stream_>>>(part_view(), sp_.grid, sort_buf_[0], sort_buf_[2]);
-  check(cub::DeviceRadixSort::SortPairs(sort_tmp_, sort_tmp_bytes_, sort_buf_[0], sort_buf_[1], sort_buf_[2],
-                                        sort_buf_[3], static_cast<int>(n_), 0, key_bits_, stream_),
+  if constexpr (kMembers)
+    member_sort_key_kernel<D, S, Shape, kColl><<<b, kAuxBlock, 0, stream_>>>(
+        part_view(), sp_.grid, sp_.members.particles, sort_key_bound<D>(sp_.grid.nodes), sort_keys_[0],
+        sort_slots_[0]);
+  else
+    sort_key_kernel<D, S, Shape, kColl><<<b, kAuxBlock, 0, stream_>>>(part_view(), sp_.grid, sort_keys_[0],
+                                                                      sort_slots_[0]);
+  check(cub::DeviceRadixSort::SortPairs(sort_tmp_, sort_tmp_bytes_, sort_keys_[0], sort_keys_[1], sort_slots_[0],
+                                        sort_slots_[1], static_cast<int>(n_), 0, key_bits_, stream_),
         "sort");
-  gather_kernel<S><<<b, kAuxBlock, 0, stream_>>>(part_view(), ParticleView<S>{alt_, n_}, Lay::N, sort_buf_[3], ids_,
-                                                 ids_alt_);
+  gather_kernel<S><<<b, kAuxBlock, 0, stream_>>>(part_view(), ParticleView<S>{alt_, n_}, Lay::N, sort_slots_[1],
+                                                 ids_, ids_alt_);
   check(cudaMemcpyAsync(part_, alt_, sizeof(S) * Lay::N * n_, cudaMemcpyDeviceToDevice, stream_), "sort copy");
   check(cudaMemcpyAsync(ids_, ids_alt_, sizeof(std::uint32_t) * n_, cudaMemcpyDeviceToDevice, stream_), "sort copy");
   inverse_kernel<<<b, kAuxBlock, 0, stream_>>>(ids_, inv_, n_);

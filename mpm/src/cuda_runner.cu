@@ -1,16 +1,18 @@
 // CUDA backend: dispatch to the instantiations of cuda_runner_impl.cuh, compiled in four
 // files (cuda_kernels_*.cu, one per model and shape) so that they build in parallel; the float
-// storage of the mixed and fp32 precisions in four more (cuda_kernels_{mixed,fp32}_*.cu).
+// storage of the mixed and fp32 precisions in four more (cuda_kernels_{mixed,fp32}_*.cu), and
+// ensembles (2D with boundary code) in six, one per precision and model (cuda_kernels_ens_*.cu).
 #include <cuda_runtime.h>
 
 #include <memory>
 #include <stdexcept>
+#include <string>
 
 #include "runner_common.hpp"
 
 namespace granflow::mpm {
 
-template <int D, class S, class Model, class Shape, bool kB>
+template <int D, class S, class Model, class Shape, bool kB, bool kM>
 std::unique_ptr<Runner> make_cuda_runner_t(const SceneSetup& su, const CudaOptions& opt);
 
 namespace {
@@ -19,16 +21,13 @@ struct MakeCuda {
   CudaOptions opt;
   template <int D, class S, class Model, class Shape, bool kB, bool kM>
   std::unique_ptr<Runner> run(const SceneSetup& su) {
-    if constexpr (kM) {
-      throw std::runtime_error("ensembles are not built for the CUDA backend yet; use --backend cpu");
-    } else
 #ifndef GRANFLOW_MPM_CUDA_3D
     if constexpr (D == 3) {
       throw std::runtime_error("3D CUDA kernels are not compiled: configure with -DGRANFLOW_MPM_CUDA_3D=ON");
     } else
 #endif
     {
-      return make_cuda_runner_t<D, S, Model, Shape, kB>(su, opt);
+      return make_cuda_runner_t<D, S, Model, Shape, kB, kM>(su, opt);
     }
   }
 };
@@ -38,6 +37,15 @@ struct MakeCuda {
 bool cuda_backend_available() {
   int n = 0;
   return cudaGetDeviceCount(&n) == cudaSuccess && n > 0;
+}
+
+int cuda_device_count() {
+  int n = 0;
+  return cudaGetDeviceCount(&n) == cudaSuccess ? n : 0;
+}
+
+void cuda_select_device(int device) {
+  if (cudaSetDevice(device) != cudaSuccess) throw std::runtime_error("cudaSetDevice(" + std::to_string(device) + ") failed");
 }
 
 bool cuda_memory_info(std::size_t& free, std::size_t& total) {

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "cuda_launch_config.cuh"
@@ -20,10 +21,17 @@ namespace {
 struct SpanControl;  // cuda_span.cuh
 struct FieldList;    // cuda_sampling.cuh
 
-template <int D, class S, class Model, class Shape, bool kBoundary>
+// kMembers: an ensemble (kernels.hpp, Members). Particles stay member-major in every order
+// (sort keys put member k before k + 1), so the member of slot p is p / P; the grid holds the
+// members' nodes one block after another (nn_ nodes in all, sp_.grid.n_nodes per member).
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
 class CudaRunner final : public Runner {
   using G = GridLayout<D>;
   using Lay = ParticleLayout<D, Model::kCollisional>;
+  using MV = MemberValues<typename Model::Params, S>;
+  // Sort keys: member-major for ensembles, k * sort_key_bound + sort_key, which needs more
+  // than 32 bits for large ensembles of large grids.
+  using SortKey = std::conditional_t<kMembers, std::uint64_t, std::uint32_t>;
   static constexpr bool kColl = Model::kCollisional;
   static constexpr int kElastic = elastic_min_blocks<typename Model::Scalar>(false);
   static constexpr int kElasticCap = elastic_min_blocks<typename Model::Scalar>(true);
@@ -61,7 +69,8 @@ class CudaRunner final : public Runner {
   }
   std::string config() const override;  // cuda_step.cuh
   long particles() const override { return n_; }
-  long nodes() const override { return sp_.grid.n_nodes; }
+  long nodes() const override { return nn_; }  // of all members
+  std::vector<MemberFailure> retire_failed_members() override;  // cuda_span.cuh
 
  private:
   enum { kP2G0, kGrid0, kG2P0, kG2P1, kSort0, kSort1, kSpan0, kSpan1, kNumEvents };
@@ -97,8 +106,17 @@ class CudaRunner final : public Runner {
   // cuda_runner_impl.cuh
   void load(const HostParticles& hp);
 
+  // Ensembles: the members with their values in host memory (make_frame's diagnostics).
+  Members<typename Model::Params, S> host_members() const {
+    Members<typename Model::Params, S> m = sp_.members;
+    m.values = values_.data();
+    m.dead = nullptr;
+    return m;
+  }
+
   StepParams<D, S, Model> sp_;
   long n_;
+  long nn_;  // grid nodes of all members (sp_.grid.n_nodes per member)
   CudaOptions opt_;
   int key_bits_ = 32;
   int stage_ = 0;
@@ -119,7 +137,8 @@ class CudaRunner final : public Runner {
   double fused_waves_ = 0;             // n / (threads of the fused G2P kernel resident at once)
   long* keys_ = nullptr;           // bin of each particle (volumetric averaging)
   S* bins_ = nullptr;              // per-bin V and V tr L (volumetric averaging)
-  std::uint32_t* sort_buf_[4] = {nullptr, nullptr, nullptr, nullptr};  // keys in/out, slots in/out
+  SortKey* sort_keys_[2] = {nullptr, nullptr};          // in/out
+  std::uint32_t* sort_slots_[2] = {nullptr, nullptr};    // in/out
   unsigned char* sort_tmp_ = nullptr;
   size_t sort_tmp_bytes_ = 0;
   SpanControl* ctl_ = nullptr;
@@ -131,6 +150,11 @@ class CudaRunner final : public Runner {
   long sub_cap_ = 0;
   std::vector<std::uint8_t*> masks_;
   std::vector<bool> contacts_;  // per stage: the grid kernel with contact_node (cuda_step.cuh)
+  std::vector<MV> values_;                 // ensembles: per-member values (host copy)
+  MV* values_dev_ = nullptr;               // ... on the device (sp_.members.values)
+  std::uint32_t* dead_ = nullptr;          // per member, non-zero: retired (sp_.members.dead)
+  std::vector<std::uint32_t> dead_host_;
+  unsigned long long* member_bad_ = nullptr;  // per member: pack_bad of its first bad particle
   std::map<long, cudaGraphExec_t> graphs_;
   cudaEvent_t ev_[kNumEvents];
   PhaseTimes times_;

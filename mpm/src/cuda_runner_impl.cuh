@@ -37,21 +37,37 @@
 namespace granflow::mpm {
 namespace {
 
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline CudaRunner<D, S, Model, Shape, kBoundary>::CudaRunner(const SceneSetup& su, const CudaOptions& opt)
-    : sp_(detail::step_params<D, S, Model>(su)), n_(su.particles.n), opt_(opt) {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const SceneSetup& su, const CudaOptions& opt)
+    : sp_(detail::step_params<D, S, Model>(su)), n_(su.particles.n), nn_(su.n_nodes * su.members), opt_(opt) {
   if (n_ <= 0 || n_ >= (1L << 31)) throw std::runtime_error("CUDA backend: particle count out of range");
+  if (kMembers != (su.members > 1)) throw std::logic_error("CUDA backend: ensemble instantiation mismatch");
   if (opt_.graph_steps < 1) opt_.graph_steps = 1;
   while (opt_.graph_steps & (opt_.graph_steps - 1)) opt_.graph_steps &= opt_.graph_steps - 1;  // power of two
   if (opt_.g2p_reg_cap && opt_.g2p_block > 128) opt_.g2p_block = 128;
   if (opt_.g2p_block < 32 || opt_.g2p_block > 256 || opt_.g2p_block % 32) opt_.g2p_block = 128;
-  if (sort_key_bound<D>(sp_.grid.nodes) > (1ull << 32)) opt_.sort_every = 0;  // keys are 32 bits
-  key_bits_ = 1;
-  while (key_bits_ < 32 && (1ull << key_bits_) < sort_key_bound<D>(sp_.grid.nodes)) ++key_bits_;
+  if constexpr (kMembers) {
+    // 64-bit member-major keys (cuda_particle_order.cuh) below members * sort_key_bound
+    if (opt_.p2g == CudaOptions::P2G::Tile) opt_.p2g = CudaOptions::P2G::Warp;  // no tile mode (p2g_kernel)
+    if (su.particles.n % su.members != 0 || sp_.members.particles * su.members != n_)
+      throw std::runtime_error("CUDA backend: the members' particle counts differ");
+    const std::uint64_t bound = sort_key_bound<D>(sp_.grid.nodes);
+    if (bound > ~std::uint64_t(0) / static_cast<std::uint64_t>(su.members)) {
+      opt_.sort_every = 0;
+    } else {
+      const std::uint64_t all = bound * static_cast<std::uint64_t>(su.members);
+      key_bits_ = 1;
+      while (key_bits_ < 64 && (std::uint64_t(1) << key_bits_) < all) ++key_bits_;
+    }
+  } else {
+    if (sort_key_bound<D>(sp_.grid.nodes) > (1ull << 32)) opt_.sort_every = 0;  // keys are 32 bits
+    key_bits_ = 1;
+    while (key_bits_ < 32 && (1ull << key_bits_) < sort_key_bound<D>(sp_.grid.nodes)) ++key_bits_;
+  }
 
   check(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
   const size_t nf = static_cast<size_t>(Lay::N) * n_;
-  const long nn = sp_.grid.n_nodes;
+  const long nn = nn_;  // of all members
   part_ = device_alloc<S>(nf);
   alt_ = device_alloc<S>(nf);
   grid_ = device_alloc<S>(static_cast<size_t>(G::N) * nn);
@@ -70,9 +86,10 @@ inline CudaRunner<D, S, Model, Shape, kBoundary>::CudaRunner(const SceneSetup& s
     bins_ = device_alloc<S>(2 * static_cast<size_t>(nn));
   }
   if (opt_.sort_every > 0) {
-    for (auto*& a : sort_buf_) a = device_alloc<std::uint32_t>(n_);
-    check(cub::DeviceRadixSort::SortPairs(nullptr, sort_tmp_bytes_, sort_buf_[0], sort_buf_[1], sort_buf_[2],
-                                          sort_buf_[3], static_cast<int>(n_), 0, key_bits_, stream_),
+    for (auto*& a : sort_keys_) a = device_alloc<SortKey>(n_);
+    for (auto*& a : sort_slots_) a = device_alloc<std::uint32_t>(n_);
+    check(cub::DeviceRadixSort::SortPairs(nullptr, sort_tmp_bytes_, sort_keys_[0], sort_keys_[1], sort_slots_[0],
+                                          sort_slots_[1], static_cast<int>(n_), 0, key_bits_, stream_),
           "sort size");
     sort_tmp_ = device_alloc<unsigned char>(sort_tmp_bytes_);
   }
@@ -88,14 +105,28 @@ inline CudaRunner<D, S, Model, Shape, kBoundary>::CudaRunner(const SceneSetup& s
     masks_.push_back(d);
     contacts_.push_back(stage_has_contacts(su, static_cast<int>(masks_.size()) - 1));
   }
+  if constexpr (kMembers) {
+    // per-member values, retired flags and first bad particles (sp_.members, SpanControl)
+    const int nm = su.members;
+    values_ = detail::member_values<D, S, Model>(su);
+    values_dev_ = device_alloc<MV>(nm);
+    check(cudaMemcpy(values_dev_, values_.data(), sizeof(MV) * nm, cudaMemcpyHostToDevice), "member values");
+    dead_host_.assign(nm, 0u);
+    dead_ = device_alloc<std::uint32_t>(nm);
+    check(cudaMemset(dead_, 0, sizeof(std::uint32_t) * nm), "member flags");
+    member_bad_ = device_alloc<unsigned long long>(nm);
+    check(cudaMemset(member_bad_, 0xff, sizeof(unsigned long long) * nm), "member failures");  // kNoBadParticle
+    sp_.members.values = values_dev_;
+    sp_.members.dead = dead_;
+  }
   for (auto& e : ev_) check(cudaEventCreate(&e), "cudaEventCreate");
   preload();
   load(su.particles);
   set_stage(0, 0.0, su.scene.flip);
 }
 
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline CudaRunner<D, S, Model, Shape, kBoundary>::~CudaRunner() {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::~CudaRunner() {
   cudaStreamSynchronize(stream_);
   for (auto& [k, g] : graphs_) cudaGraphExecDestroy(g);
   for (void* p : {static_cast<void*>(part_), static_cast<void*>(alt_), static_cast<void*>(grid_),
@@ -103,9 +134,11 @@ inline CudaRunner<D, S, Model, Shape, kBoundary>::~CudaRunner() {
                   static_cast<void*>(ids_alt_), static_cast<void*>(inv_), static_cast<void*>(keys_),
                   static_cast<void*>(bins_), static_cast<void*>(sort_tmp_), static_cast<void*>(ctl_),
                   static_cast<void*>(sub_ids_), static_cast<void*>(sub_out_), static_cast<void*>(deferred_),
-                  static_cast<void*>(n_deferred_)})
+                  static_cast<void*>(n_deferred_), static_cast<void*>(values_dev_), static_cast<void*>(dead_),
+                  static_cast<void*>(member_bad_)})
     cudaFree(p);
-  for (auto* a : sort_buf_) cudaFree(a);
+  for (auto* a : sort_keys_) cudaFree(a);
+  for (auto* a : sort_slots_) cudaFree(a);
   for (auto* m : masks_) cudaFree(m);
   cudaFreeHost(ctl_in_);
   cudaFreeHost(ctl_out_);
@@ -117,9 +150,10 @@ inline CudaRunner<D, S, Model, Shape, kBoundary>::~CudaRunner() {
 // Particle state from the host (the set-up, or a checkpoint through upload()). The buffer keeps
 // its address, so captured graphs stay valid; the order is the original one again, and the grid
 // is cleared (a failed step may have left non-finite node
-// velocities, which nodes out of reach would otherwise pass on weighted by zero).
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline void CudaRunner<D, S, Model, Shape, kBoundary>::load(const HostParticles& hp) {
+// velocities, which nodes out of reach would otherwise pass on weighted by zero). Ensembles:
+// retired members stay retired.
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::load(const HostParticles& hp) {
   if (hp.n != n_) throw std::runtime_error("CUDA backend: particle count differs from the set-up");
   const std::vector<S> host = detail::pack<D, S, kColl>(hp);
   check(cudaMemcpyAsync(part_, host.data(), host.size() * sizeof(S), cudaMemcpyHostToDevice, stream_),
@@ -128,16 +162,16 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary>::load(const HostParticles&
   iota_kernel<<<blocks_for(n_, kAuxBlock), kAuxBlock, 0, stream_>>>(inv_, n_);
   // the grid kernel keeps mass, momentum and force zero between steps; velocities of nodes
   // no particle reaches are weighed by zero and must only be finite
-  check(cudaMemsetAsync(grid_, 0, sizeof(S) * G::N * sp_.grid.n_nodes, stream_), "clear grid");
+  check(cudaMemsetAsync(grid_, 0, sizeof(S) * G::N * nn_, stream_), "clear grid");
   check(cudaStreamSynchronize(stream_), "upload particles");
   since_sort_ = opt_.sort_every;  // sort before the first step
 }
 
 }  // namespace
 
-template <int D, class S, class Model, class Shape, bool kB>
+template <int D, class S, class Model, class Shape, bool kB, bool kM>
 std::unique_ptr<Runner> make_cuda_runner_t(const SceneSetup& su, const CudaOptions& opt) {
-  return std::make_unique<CudaRunner<D, S, Model, Shape, kB>>(su, opt);
+  return std::make_unique<CudaRunner<D, S, Model, Shape, kB, kM>>(su, opt);
 }
 
 }  // namespace granflow::mpm
@@ -146,9 +180,13 @@ std::unique_ptr<Runner> make_cuda_runner_t(const SceneSetup& su, const CudaOptio
 // GF_MPM_CUDA_INSTANTIATE: fp64 (double storage), with and without boundary code.
 // GF_MPM_CUDA_INSTANTIATE_FLOAT: float storage (MODEL<double>: mixed, MODEL<float>: fp32), with
 // boundary code only (runner_common.hpp, dispatch).
-#define GF_MPM_CUDA_INSTANTIATE_ONE(D, S, MODEL, SHAPE, KB)                                                  \
-  template std::unique_ptr<granflow::mpm::Runner> granflow::mpm::make_cuda_runner_t<D, S, MODEL, SHAPE, KB>( \
+// GF_MPM_CUDA_INSTANTIATE_ENSEMBLE: ensembles (kMembers), 2D with boundary code, storage S
+// (cuda_kernels_ens_*.cu).
+#define GF_MPM_CUDA_INSTANTIATE_ONE_M(D, S, MODEL, SHAPE, KB, KM)                                                \
+  template std::unique_ptr<granflow::mpm::Runner> granflow::mpm::make_cuda_runner_t<D, S, MODEL, SHAPE, KB, KM>( \
       const granflow::mpm::SceneSetup&, const granflow::mpm::CudaOptions&);
+#define GF_MPM_CUDA_INSTANTIATE_ONE(D, S, MODEL, SHAPE, KB) GF_MPM_CUDA_INSTANTIATE_ONE_M(D, S, MODEL, SHAPE, KB, false)
+#define GF_MPM_CUDA_INSTANTIATE_ENSEMBLE(S, MODEL, SHAPE) GF_MPM_CUDA_INSTANTIATE_ONE_M(2, S, MODEL, SHAPE, true, true)
 #define GF_MPM_CUDA_INSTANTIATE_D(D, MODEL, SHAPE)                 \
   GF_MPM_CUDA_INSTANTIATE_ONE(D, double, MODEL, SHAPE, false) \
   GF_MPM_CUDA_INSTANTIATE_ONE(D, double, MODEL, SHAPE, true)

@@ -38,12 +38,15 @@ __global__ void subset_kernel(ParticleView<S> src, const std::uint32_t* inv, con
   for (int f = 0; f < nfields; ++f) out[f * m + j] = src.f(f, i);
 }
 
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline void CudaRunner<D, S, Model, Shape, kBoundary>::frame(Frame& out, bool diagnostics,
-                                                            const std::vector<long>& subset) {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::frame(Frame& out, bool diagnostics,
+                                                                      const std::vector<long>& subset) {
   if (diagnostics) {
     std::vector<S> host = fetch_all();
-    detail::make_frame<D, S, Model>(host, n_, sp_.mp, out, diagnostics, subset);
+    if constexpr (kMembers)
+      detail::make_frame<D, S, Model>(host, n_, sp_.mp, out, diagnostics, subset, host_members());
+    else
+      detail::make_frame<D, S, Model>(host, n_, sp_.mp, out, diagnostics, subset);
     return;
   }
   // light frame: x, v and sqrt(T) of every particle, full records of the subset only
@@ -92,13 +95,24 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary>::frame(Frame& out, bool di
   std::vector<long> all(m);
   for (long j = 0; j < m; ++j) all[j] = j;
   Frame tmp;
-  detail::make_frame<D, S, Model>(small, m, sp_.mp, tmp, false, all);
+  if constexpr (kMembers) {
+    // entry j is particle subset[j] of member subset[j] / P: one "member" per entry
+    std::vector<MV> vals(m);
+    for (long j = 0; j < m; ++j) vals[j] = values_[sp_.members.of_particle(subset[j])];
+    Members<typename Model::Params, S> per_entry;
+    per_entry.count = static_cast<int>(m);
+    per_entry.particles = 1;
+    per_entry.values = vals.data();
+    detail::make_frame<D, S, Model>(small, m, sp_.mp, tmp, false, all, per_entry);
+  } else {
+    detail::make_frame<D, S, Model>(small, m, sp_.mp, tmp, false, all);
+  }
   out.subset = std::move(tmp.subset);
 }
 
 // The listed fields of every particle in the original order, in pinned host memory.
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline const S* CudaRunner<D, S, Model, Shape, kBoundary>::fetch(const FieldList& fl) {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline const S* CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::fetch(const FieldList& fl) {
   if (!host_) check(cudaMallocHost(&host_, sizeof(S) * Lay::N * n_), "cudaMallocHost");
   unpermute_kernel<S><<<blocks_for(n_, kAuxBlock), kAuxBlock, 0, stream_>>>(part_view(), ids_, fl, alt_);
   check(cudaMemcpyAsync(host_, alt_, sizeof(S) * fl.n * n_, cudaMemcpyDeviceToHost, stream_), "download");
@@ -106,8 +120,8 @@ inline const S* CudaRunner<D, S, Model, Shape, kBoundary>::fetch(const FieldList
   return host_;
 }
 
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline std::vector<S> CudaRunner<D, S, Model, Shape, kBoundary>::fetch_all() {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline std::vector<S> CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::fetch_all() {
   FieldList fl{};
   for (int f = 0; f < Lay::N; ++f) fl.f[fl.n++] = f;
   const S* h = fetch(fl);

@@ -34,7 +34,20 @@ struct SpanControl {
   unsigned long long lim;  // dt_limit_bits of the smallest stable step of the current step
   unsigned long long deferred;  // split G2P: points of the span's steps that needed the plastic pass
   unsigned int blocks_done;
+  // Ensembles: per member, pack_bad of its first bad particle since the last
+  // retire_failed_members (kNoBadParticle: none); null for single runs. Last, so that the
+  // fields above keep their offsets.
+  unsigned long long* member_bad;
 };
+
+// A bad particle of member k: the span's first (which stops the span after this step) and, for
+// ensembles, the member's first (retire_failed_members).
+template <bool kMembers>
+__device__ __forceinline__ void report_bad(SpanControl* ctl, int k, std::uint32_t id, std::uint32_t st) {
+  const unsigned long long b = pack_bad(id, st);
+  atomicMin(&ctl->bad, b);
+  if constexpr (kMembers) atomicMin(&ctl->member_bad[k], b);
+}
 
 // The step's parameters with the span's step size, FLIP fraction and damping.
 template <int D, class S, class Model>
@@ -103,8 +116,8 @@ __device__ __forceinline__ void finish_step(SpanControl* ctl, double lim, int wa
 // ---- the runner's spans ------------------------------------------------------------------
 
 // One step is a span of one step.
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline StepResult CudaRunner<D, S, Model, Shape, kBoundary>::step(double dt, bool want_dt_limit) {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline StepResult CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::step(double dt, bool want_dt_limit) {
   Span s;
   s.max_steps = 1;
   s.t = t_;
@@ -117,8 +130,8 @@ inline StepResult CudaRunner<D, S, Model, Shape, kBoundary>::step(double dt, boo
   return out;
 }
 
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline SpanResult CudaRunner<D, S, Model, Shape, kBoundary>::advance_span(const Span& s) {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline SpanResult CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::advance_span(const Span& s) {
   SpanControl& c = *ctl_in_;
   std::memset(&c, 0, sizeof c);
   c.t = s.t;
@@ -134,6 +147,7 @@ inline SpanResult CudaRunner<D, S, Model, Shape, kBoundary>::advance_span(const 
   c.h = span_step_size(s.t, s.dt, s.t_land);
   c.bad = kNoBadParticle;
   c.lim = dt_limit_bits(1e300);
+  if constexpr (kMembers) c.member_bad = member_bad_;
   check(cudaMemcpyAsync(ctl_, ctl_in_, sizeof c, cudaMemcpyHostToDevice, stream_), "span start");
   check(cudaEventRecord(ev_[kSpan0], stream_), "event");
   if (s.timing)
@@ -164,10 +178,37 @@ inline SpanResult CudaRunner<D, S, Model, Shape, kBoundary>::advance_span(const 
   return r;
 }
 
+// Ensembles: the members whose first bad particle the last span recorded (a failed span stops
+// after the step in which they failed; the other members finished that step) are marked dead
+// on the device, so every later step skips their particles, and their records are cleared.
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline std::vector<MemberFailure> CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::retire_failed_members() {
+  std::vector<MemberFailure> out;
+  if constexpr (kMembers) {
+    const int nm = sp_.members.count;
+    std::vector<unsigned long long> bad(nm);
+    check(cudaMemcpyAsync(bad.data(), member_bad_, sizeof(unsigned long long) * nm, cudaMemcpyDeviceToHost,
+                          stream_),
+          "member failures");
+    check(cudaStreamSynchronize(stream_), "member failures");
+    for (int k = 0; k < nm; ++k) {
+      if (bad[k] == kNoBadParticle || dead_host_[k]) continue;
+      dead_host_[k] = 1;
+      out.push_back({k, static_cast<long>(bad[k] >> 32), static_cast<std::uint32_t>(bad[k] & 0xffffffffu)});
+    }
+    if (!out.empty())
+      check(cudaMemcpyAsync(dead_, dead_host_.data(), sizeof(std::uint32_t) * nm, cudaMemcpyHostToDevice, stream_),
+            "retire members");
+    check(cudaMemsetAsync(member_bad_, 0xff, sizeof(unsigned long long) * nm, stream_), "retire members");
+    check(cudaStreamSynchronize(stream_), "retire members");
+  }
+  return out;
+}
+
 // Graph of `steps` steps of the current stage; the first call of a stage captures every
 // chunk length (1, 2, 4, ... graph_steps) so that later spans only replay.
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline cudaGraphExec_t CudaRunner<D, S, Model, Shape, kBoundary>::graph_for(int steps) {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline cudaGraphExec_t CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::graph_for(int steps) {
   const long key = static_cast<long>(stage_) * 4096 + steps;
   auto it = graphs_.find(key);
   if (it != graphs_.end()) return it->second;
@@ -177,8 +218,8 @@ inline cudaGraphExec_t CudaRunner<D, S, Model, Shape, kBoundary>::graph_for(int 
   return it != graphs_.end() ? it->second : capture(steps);
 }
 
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline cudaGraphExec_t CudaRunner<D, S, Model, Shape, kBoundary>::capture(int steps) {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline cudaGraphExec_t CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::capture(int steps) {
   const long key = static_cast<long>(stage_) * 4096 + steps;
   check(cudaStreamBeginCapture(stream_, cudaStreamCaptureModeThreadLocal), "begin capture");
   try {
@@ -200,8 +241,8 @@ inline cudaGraphExec_t CudaRunner<D, S, Model, Shape, kBoundary>::capture(int st
 }
 
 // Production: the steps are queued (graph chunks of 2^k steps), sorted every sort_every.
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline void CudaRunner<D, S, Model, Shape, kBoundary>::run_queued(long nsteps) {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::run_queued(long nsteps) {
   long left = nsteps;
   while (left > 0) {
     if (sort_due()) {
@@ -224,8 +265,8 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary>::run_queued(long nsteps) {
 }
 
 // Benchmarks: every phase between events, a synchronisation per step; stops when the span does.
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline void CudaRunner<D, S, Model, Shape, kBoundary>::run_timed(long nsteps) {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::run_timed(long nsteps) {
   for (long i = 0; i < nsteps; ++i) {
     if (sort_due()) {
       cudaEventRecord(ev_[kSort0], stream_);

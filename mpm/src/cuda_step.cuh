@@ -67,25 +67,48 @@ __device__ __forceinline__ void scatter_warp(const P2GParticle<D, S>& q, const i
 
 // Contribution order: c[0] mass, c[1..D] momentum, c[1+D..2D] force, which are the grid
 // fields 0..2D of GridLayout.
-template <int D, class S, class Model, class Shape, int kMode>
+// kMembers: the particle's member k gives its values (apply_member) and its block of nodes:
+// node (and run key, and bin) k G + local node, so runs never join points of two members.
+// A retired member's points contribute nothing. The tile mode is not built for ensembles (a
+// block's box would have to stay inside one member's nodes): they scatter with warp sums.
+template <int D, class S, class Model, class Shape, int kMode, bool kMembers>
 __global__ void __launch_bounds__(kP2GBlock, p2g_min_blocks<S>())
     p2g_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp, const SpanControl* ctl,
                long* bin_keys) {
   static_assert(GridLayout<D>::M == 0 && GridLayout<D>::P == 1 && GridLayout<D>::F == 1 + D, "field order");
+  static_assert(!(kMembers && kMode == kP2GTile), "ensembles scatter with warp sums (no tile)");
   constexpr int NC = 1 + 2 * D;
   constexpr int K = Shape::K;
   if (!ctl->active) return;
   const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
-  const bool valid = p < pv.n;
+  bool valid = p < pv.n;
+  long node0 = 0;  // first node of the particle's member (kMembers)
+  int k = 0;
+  if constexpr (kMembers) {
+    if (valid) {
+      k = sp.members.of_particle(p);
+      valid = !sp.members.skipped(k);
+      node0 = static_cast<long>(k) * sp.members.nodes;
+    }
+  }
+  auto node = [&](const int* I) -> long {
+    if constexpr (kMembers) return node0 + sp.grid.linear(I); else return sp.grid.linear(I);
+  };
   P2GParticle<D, S> q{};
   int base[D] = {};
   if (valid) {
-    q = p2g_load<D, S, Model>(pv, p, sp);
+    if constexpr (kMembers) {
+      StepParams<D, S, Model> spm = sp;
+      apply_member(spm, k);
+      q = p2g_load<D, S, Model>(pv, p, spm);
+    } else {
+      q = p2g_load<D, S, Model>(pv, p, sp);
+    }
     stencil_base<D, S, Shape>(q.xi, sp.grid, base);  // G2P of the last step checked it is on the grid
-    if (bin_keys) bin_keys[p] = sp.grid.linear(base);  // bin of the particle (volumetric averaging)
+    if (bin_keys) bin_keys[p] = node(base);  // bin of the particle (volumetric averaging)
   }
   auto to_global = [&](const int* I, const S* c) {
-    const long n = sp.grid.linear(I);
+    const long n = node(I);
     for (int f = 0; f < NC; ++f) atomicAdd(&gv.f(f, n), c[f]);
   };
   if constexpr (kMode == kP2GAtomic) {
@@ -98,7 +121,7 @@ __global__ void __launch_bounds__(kP2GBlock, p2g_min_blocks<S>())
       to_global(I, c);
     }
   } else {
-    const long key = valid ? sp.grid.linear(base) : -1 - static_cast<long>(threadIdx.x);
+    const long key = valid ? node(base) : -1 - static_cast<long>(threadIdx.x);
     if constexpr (kMode == kP2GWarp) {
       scatter_warp<D, S, Shape>(q, base, key, valid, sp.grid.inv_h, to_global);
     } else {
@@ -150,20 +173,33 @@ __global__ void __launch_bounds__(kP2GBlock, p2g_min_blocks<S>())
 // both shapes), so its momentum and force are zero too and G2P weighs its velocities by zero:
 // nothing to do. Other nodes are updated and their mass, momentum and force cleared for the
 // next P2G (the grid starts zeroed).
-template <int D, class S, class Model, bool kBoundary, bool kContacts>
+// kMembers: over the nodes of all members; node I is node I - k G of member k's view (its
+// values, masks and contact table).
+template <int D, class S, class Model, bool kBoundary, bool kContacts, bool kMembers>
 __global__ void grid_kernel(GridView<S> gv, StepParams<D, S, Model> sp0, const SpanControl* ctl) {
   if (!ctl->active) return;
   const long I = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
   if (I >= gv.n) return;
   if (gv.f(GridLayout<D>::M, I) == S(0)) return;
   const StepParams<D, S, Model> sp = with_span(sp0, ctl);
-  grid_update_node<D, S, Model, kBoundary, kContacts>(gv, I, sp);
+  if constexpr (kMembers) {
+    const int k = sp.members.of_node(I);
+    StepParams<D, S, Model> spm = sp;
+    apply_member(spm, k);
+    grid_update_node<D, S, Model, kBoundary, kContacts>(member_grid(gv, sp.members, k),
+                                                        I - static_cast<long>(k) * sp.members.nodes, spm);
+  } else {
+    grid_update_node<D, S, Model, kBoundary, kContacts>(gv, I, sp);
+  }
   for (int f = 0; f < 1 + 2 * D; ++f) gv.f(f, I) = S(0);
 }
 
 // ---- G2P ---------------------------------------------------------------------------------
+// kMembers: each particle with its member's values and view of the grid; a retired member's
+// points are skipped (no update, no stable-step limit); a failure is recorded for the span and
+// for the member (report_bad). The stable step is the smallest of all members: they share it.
 
-template <int D, class S, class Model, class Shape, int kMaxThreads, int kMinBlocks>
+template <int D, class S, class Model, class Shape, int kMaxThreads, int kMinBlocks, bool kMembers>
 __global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
     g2p_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp0, SpanControl* ctl,
                const std::uint32_t* ids, std::uint32_t* upd_info) {
@@ -171,9 +207,20 @@ __global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
   const StepParams<D, S, Model> sp = with_span(sp0, ctl);
   const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
   S lim = S(1e300);
-  if (p < pv.n) {
-    const std::uint32_t st = g2p_particle<D, S, Model, Shape>(pv, gv, p, sp, &lim, &upd_info[p]);
-    if (st) atomicMin(&ctl->bad, pack_bad(ids[p], st));
+  if constexpr (kMembers) {
+    const int k = p < pv.n ? sp.members.of_particle(p) : 0;
+    if (p < pv.n && !sp.members.skipped(k)) {
+      StepParams<D, S, Model> spm = sp;
+      apply_member(spm, k);
+      const std::uint32_t st =
+          g2p_particle<D, S, Model, Shape>(pv, member_grid(gv, sp.members, k), p, spm, &lim, &upd_info[p]);
+      if (st) report_bad<kMembers>(ctl, k, ids[p], st);
+    }
+  } else {
+    if (p < pv.n) {
+      const std::uint32_t st = g2p_particle<D, S, Model, Shape>(pv, gv, p, sp, &lim, &upd_info[p]);
+      if (st) atomicMin(&ctl->bad, pack_bad(ids[p], st));
+    }
   }
   finish_step(ctl, double(lim), sp.want_dt_limit);
 }
@@ -184,7 +231,7 @@ __global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
 // points only, packed into warps, so that elastic points wait for no return map and a warp's
 // returns are of points that all need one. Each point gets the fused kernel's update (test
 // PhaseTransition.ElasticOnlyUpdateIsTheFullUpdateOrDefersPlasticSteps).
-template <int D, class S, class Model, class Shape, int kMinBlocks>
+template <int D, class S, class Model, class Shape, int kMinBlocks, bool kMembers>
 __global__ void __launch_bounds__(kSplitBlock, kMinBlocks)
     g2p_elastic_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp0, SpanControl* ctl,
                        const std::uint32_t* ids, std::uint32_t* upd_info, std::uint32_t* deferred,
@@ -194,11 +241,23 @@ __global__ void __launch_bounds__(kSplitBlock, kMinBlocks)
   const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
   S lim = S(1e300);
   bool defer = false;
-  if (p < pv.n) {
-    const std::uint32_t st =
-        g2p_particle<D, S, Model, Shape, UpdatePart::ElasticOnly>(pv, gv, p, sp, &lim, &upd_info[p]);
-    defer = st == kDeferredPoint;
-    if (st && !defer) atomicMin(&ctl->bad, pack_bad(ids[p], st));
+  if constexpr (kMembers) {
+    const int k = p < pv.n ? sp.members.of_particle(p) : 0;
+    if (p < pv.n && !sp.members.skipped(k)) {
+      StepParams<D, S, Model> spm = sp;
+      apply_member(spm, k);
+      const std::uint32_t st = g2p_particle<D, S, Model, Shape, UpdatePart::ElasticOnly>(
+          pv, member_grid(gv, sp.members, k), p, spm, &lim, &upd_info[p]);
+      defer = st == kDeferredPoint;
+      if (st && !defer) report_bad<kMembers>(ctl, k, ids[p], st);
+    }
+  } else {
+    if (p < pv.n) {
+      const std::uint32_t st =
+          g2p_particle<D, S, Model, Shape, UpdatePart::ElasticOnly>(pv, gv, p, sp, &lim, &upd_info[p]);
+      defer = st == kDeferredPoint;
+      if (st && !defer) atomicMin(&ctl->bad, pack_bad(ids[p], st));
+    }
   }
   // one atomic per warp for its deferred points
   const unsigned mask = __ballot_sync(kFullMask, defer);
@@ -213,7 +272,9 @@ __global__ void __launch_bounds__(kSplitBlock, kMinBlocks)
   if (sp.want_dt_limit) reduce_dt_limit(ctl, double(lim));
 }
 
-template <int D, class S, class Model, int kMaxThreads, int kMinBlocks>
+// kMembers: the deferred points are of members that are not retired (the first pass skipped
+// the others).
+template <int D, class S, class Model, int kMaxThreads, int kMinBlocks, bool kMembers>
 __global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
     g2p_plastic_kernel(ParticleView<S> pv, StepParams<D, S, Model> sp0, SpanControl* ctl, const std::uint32_t* ids,
                        std::uint32_t* upd_info, const std::uint32_t* deferred, unsigned* n_deferred) {
@@ -223,14 +284,24 @@ __global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
   S lim = S(1e300);
   if (i < static_cast<long>(*n_deferred)) {
     const long p = deferred[i];
-    const std::uint32_t st = constitutive_particle<D, S, Model>(pv, p, sp, S(NAN), &lim, &upd_info[p]);
-    if (st) atomicMin(&ctl->bad, pack_bad(ids[p], st));
+    if constexpr (kMembers) {
+      const int k = sp.members.of_particle(p);
+      StepParams<D, S, Model> spm = sp;
+      apply_member(spm, k);
+      const std::uint32_t st = constitutive_particle<D, S, Model>(pv, p, spm, S(NAN), &lim, &upd_info[p]);
+      if (st) report_bad<kMembers>(ctl, k, ids[p], st);
+    } else {
+      const std::uint32_t st = constitutive_particle<D, S, Model>(pv, p, sp, S(NAN), &lim, &upd_info[p]);
+      if (st) atomicMin(&ctl->bad, pack_bad(ids[p], st));
+    }
   }
   finish_step(ctl, double(lim), sp.want_dt_limit, n_deferred);
 }
 
 // Split G2P for volumetric averaging: kinematics and bin sums, then the constitutive update.
-template <int D, class S, class Model, class Shape>
+// kMembers: bins are nodes of all members (P2G's keys k G + local); a retired member's points
+// are skipped here and in constitutive_kernel.
+template <int D, class S, class Model, class Shape, bool kMembers>
 __global__ void g2p_kinematics_kernel(ParticleView<S> pv, GridView<S> gv, StepParams<D, S, Model> sp0,
                                       SpanControl* ctl, const std::uint32_t* ids, const long* keys, S* bin_v,
                                       S* bin_vtr, std::uint32_t* status) {
@@ -238,19 +309,36 @@ __global__ void g2p_kinematics_kernel(ParticleView<S> pv, GridView<S> gv, StepPa
   const StepParams<D, S, Model> sp = with_span(sp0, ctl);
   const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
   if (p >= pv.n) return;
-  const std::uint32_t st = g2p_kinematics<D, S, Model, Shape>(pv, gv, p, sp);
-  status[p] = st;
-  if (st) {
-    atomicMin(&ctl->bad, pack_bad(ids[p], st));
-    return;
+  if constexpr (kMembers) {
+    const int k = sp.members.of_particle(p);
+    if (sp.members.skipped(k)) return;
+    StepParams<D, S, Model> spm = sp;
+    apply_member(spm, k);
+    const std::uint32_t st = g2p_kinematics<D, S, Model, Shape>(pv, member_grid(gv, sp.members, k), p, spm);
+    status[p] = st;
+    if (st) {
+      report_bad<kMembers>(ctl, k, ids[p], st);
+      return;
+    }
+    S V, tr;
+    volumetric_rate<D, S, Model>(pv, p, spm, V, tr);
+    atomicAdd(&bin_v[keys[p]], V);
+    atomicAdd(&bin_vtr[keys[p]], V * tr);
+  } else {
+    const std::uint32_t st = g2p_kinematics<D, S, Model, Shape>(pv, gv, p, sp);
+    status[p] = st;
+    if (st) {
+      atomicMin(&ctl->bad, pack_bad(ids[p], st));
+      return;
+    }
+    S V, tr;
+    volumetric_rate<D, S, Model>(pv, p, sp, V, tr);
+    atomicAdd(&bin_v[keys[p]], V);
+    atomicAdd(&bin_vtr[keys[p]], V * tr);
   }
-  S V, tr;
-  volumetric_rate<D, S, Model>(pv, p, sp, V, tr);
-  atomicAdd(&bin_v[keys[p]], V);
-  atomicAdd(&bin_vtr[keys[p]], V * tr);
 }
 
-template <int D, class S, class Model, int kMaxThreads, int kMinBlocks>
+template <int D, class S, class Model, int kMaxThreads, int kMinBlocks, bool kMembers>
 __global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
     constitutive_kernel(ParticleView<S> pv, StepParams<D, S, Model> sp0, SpanControl* ctl, const std::uint32_t* ids,
                         const long* keys, const S* bin_v, const S* bin_vtr, std::uint32_t* status,
@@ -259,12 +347,25 @@ __global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
   const StepParams<D, S, Model> sp = with_span(sp0, ctl);
   const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
   S lim = S(1e300);
-  if (p < pv.n && status[p] == 0) {  // else the kinematics already failed here
-    const long b = keys[p];
-    const S tr_bar = bin_v[b] > S(0) ? bin_vtr[b] / bin_v[b] : S(0);
-    const std::uint32_t st = constitutive_particle<D, S, Model>(pv, p, sp, tr_bar, &lim, &upd_info[p]);
-    status[p] = st;
-    if (st) atomicMin(&ctl->bad, pack_bad(ids[p], st));
+  if constexpr (kMembers) {
+    const int k = p < pv.n ? sp.members.of_particle(p) : 0;
+    if (p < pv.n && !sp.members.skipped(k) && status[p] == 0) {  // else retired, or the kinematics failed
+      StepParams<D, S, Model> spm = sp;
+      apply_member(spm, k);
+      const long b = keys[p];
+      const S tr_bar = bin_v[b] > S(0) ? bin_vtr[b] / bin_v[b] : S(0);
+      const std::uint32_t st = constitutive_particle<D, S, Model>(pv, p, spm, tr_bar, &lim, &upd_info[p]);
+      status[p] = st;
+      if (st) report_bad<kMembers>(ctl, k, ids[p], st);
+    }
+  } else {
+    if (p < pv.n && status[p] == 0) {  // else the kinematics already failed here
+      const long b = keys[p];
+      const S tr_bar = bin_v[b] > S(0) ? bin_vtr[b] / bin_v[b] : S(0);
+      const std::uint32_t st = constitutive_particle<D, S, Model>(pv, p, sp, tr_bar, &lim, &upd_info[p]);
+      status[p] = st;
+      if (st) atomicMin(&ctl->bad, pack_bad(ids[p], st));
+    }
   }
   finish_step(ctl, double(lim), sp.want_dt_limit);
 }
@@ -273,17 +374,17 @@ __global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
 
 // Split G2P: as asked, or (auto) from two waves of the fused kernel up, where the step is
 // throughput-bound rather than bound by one point's latency.
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline bool CudaRunner<D, S, Model, Shape, kBoundary>::use_split() {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline bool CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::use_split() {
   if (opt_.g2p_split != CudaOptions::Split::Auto) return opt_.g2p_split == CudaOptions::Split::On;
   int dev = 0, sms = 0, per_sm = 0;
   check(cudaGetDevice(&dev), "cudaGetDevice");
   check(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev), "SM count");
   if (opt_.g2p_reg_cap)
-    check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, g2p_kernel<D, S, Model, Shape, 128, 3>,
+    check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, g2p_kernel<D, S, Model, Shape, 128, 3, kMembers>,
                                                         opt_.g2p_block, 0), "occupancy");
   else
-    check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, g2p_kernel<D, S, Model, Shape, 256, 1>,
+    check(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, g2p_kernel<D, S, Model, Shape, 256, 1, kMembers>,
                                                         opt_.g2p_block, 0), "occupancy");
   fused_waves_ = double(n_) / (double(sms) * std::max(1, per_sm) * opt_.g2p_block);
   return fused_waves_ >= 2.0;
@@ -291,29 +392,31 @@ inline bool CudaRunner<D, S, Model, Shape, kBoundary>::use_split() {
 
 // Loads the step kernels now (lazy module loading would otherwise load them during the
 // first graph capture, which older drivers refuse).
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline void CudaRunner<D, S, Model, Shape, kBoundary>::preload() const {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::preload() const {
   cudaFuncAttributes a;
-  const void* k[] = {reinterpret_cast<const void*>(p2g_kernel<D, S, Model, Shape, kP2GAtomic>),
-                     reinterpret_cast<const void*>(p2g_kernel<D, S, Model, Shape, kP2GWarp>),
-                     reinterpret_cast<const void*>(p2g_kernel<D, S, Model, Shape, kP2GTile>),
-                     reinterpret_cast<const void*>(grid_kernel<D, S, Model, kBoundary, false>),
-                     reinterpret_cast<const void*>(grid_kernel<D, S, Model, kBoundary, kBoundary>),
-                     reinterpret_cast<const void*>(g2p_kernel<D, S, Model, Shape, 256, 1>),
-                     reinterpret_cast<const void*>(g2p_kernel<D, S, Model, Shape, 128, 3>),
-                     reinterpret_cast<const void*>(g2p_kinematics_kernel<D, S, Model, Shape>),
-                     reinterpret_cast<const void*>(constitutive_kernel<D, S, Model, 256, 1>),
-                     reinterpret_cast<const void*>(constitutive_kernel<D, S, Model, 128, 3>),
-                     reinterpret_cast<const void*>(g2p_elastic_kernel<D, S, Model, Shape, kElastic>),
-                     reinterpret_cast<const void*>(g2p_elastic_kernel<D, S, Model, Shape, kElasticCap>),
-                     reinterpret_cast<const void*>(g2p_plastic_kernel<D, S, Model, 256, 1>)};
+  if constexpr (!kMembers)  // ensembles: no tile mode (p2g_kernel)
+    check(cudaFuncGetAttributes(&a, reinterpret_cast<const void*>(p2g_kernel<D, S, Model, Shape, kP2GTile, false>)),
+          "load kernels");
+  const void* k[] = {reinterpret_cast<const void*>(p2g_kernel<D, S, Model, Shape, kP2GAtomic, kMembers>),
+                     reinterpret_cast<const void*>(p2g_kernel<D, S, Model, Shape, kP2GWarp, kMembers>),
+                     reinterpret_cast<const void*>(grid_kernel<D, S, Model, kBoundary, false, kMembers>),
+                     reinterpret_cast<const void*>(grid_kernel<D, S, Model, kBoundary, kBoundary, kMembers>),
+                     reinterpret_cast<const void*>(g2p_kernel<D, S, Model, Shape, 256, 1, kMembers>),
+                     reinterpret_cast<const void*>(g2p_kernel<D, S, Model, Shape, 128, 3, kMembers>),
+                     reinterpret_cast<const void*>(g2p_kinematics_kernel<D, S, Model, Shape, kMembers>),
+                     reinterpret_cast<const void*>(constitutive_kernel<D, S, Model, 256, 1, kMembers>),
+                     reinterpret_cast<const void*>(constitutive_kernel<D, S, Model, 128, 3, kMembers>),
+                     reinterpret_cast<const void*>(g2p_elastic_kernel<D, S, Model, Shape, kElastic, kMembers>),
+                     reinterpret_cast<const void*>(g2p_elastic_kernel<D, S, Model, Shape, kElasticCap, kMembers>),
+                     reinterpret_cast<const void*>(g2p_plastic_kernel<D, S, Model, 256, 1, kMembers>)};
   for (const void* f : k) check(cudaFuncGetAttributes(&a, f), "load kernels");
 }
 
 // Queues one step (kernels only: capturable).
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline void CudaRunner<D, S, Model, Shape, kBoundary>::enqueue_step(bool timed) {
-  const long nn = sp_.grid.n_nodes;
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_step(bool timed) {
+  const long nn = nn_;  // of all members
   const ParticleView<S> pv = part_view();
   const GridView<S> gv{grid_, nn, masks_[stage_]};
   const unsigned pb = blocks_for(n_, kP2GBlock);
@@ -323,53 +426,62 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary>::enqueue_step(bool timed) 
   if (timed) cudaEventRecord(ev_[kP2G0], stream_);
   switch (opt_.p2g) {
     case CudaOptions::P2G::Atomic:
-      p2g_kernel<D, S, Model, Shape, kP2GAtomic><<<pb, kP2GBlock, 0, stream_>>>(pv, gv, sp_, ctl_, bk);
+      p2g_kernel<D, S, Model, Shape, kP2GAtomic, kMembers><<<pb, kP2GBlock, 0, stream_>>>(pv, gv, sp_, ctl_, bk);
       break;
     case CudaOptions::P2G::Warp:
-      p2g_kernel<D, S, Model, Shape, kP2GWarp><<<pb, kP2GBlock, 0, stream_>>>(pv, gv, sp_, ctl_, bk);
+      p2g_kernel<D, S, Model, Shape, kP2GWarp, kMembers><<<pb, kP2GBlock, 0, stream_>>>(pv, gv, sp_, ctl_, bk);
       break;
-    case CudaOptions::P2G::Tile:
-      p2g_kernel<D, S, Model, Shape, kP2GTile><<<pb, kP2GBlock, 0, stream_>>>(pv, gv, sp_, ctl_, bk);
+    case CudaOptions::P2G::Tile:  // single runs only (the constructor sets warp for ensembles)
+      if constexpr (!kMembers)
+        p2g_kernel<D, S, Model, Shape, kP2GTile, false><<<pb, kP2GBlock, 0, stream_>>>(pv, gv, sp_, ctl_, bk);
       break;
   }
   if (timed) cudaEventRecord(ev_[kGrid0], stream_);
   if (kBoundary && contacts_[stage_])  // friction or a lifting gate (boundary.hpp)
-    grid_kernel<D, S, Model, kBoundary, kBoundary><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
+    grid_kernel<D, S, Model, kBoundary, kBoundary, kMembers><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
   else
-    grid_kernel<D, S, Model, kBoundary, false><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
+    grid_kernel<D, S, Model, kBoundary, false, kMembers><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
   if (timed) cudaEventRecord(ev_[kG2P0], stream_);
   if (split()) {
     const unsigned eb = blocks_for(n_, kSplitBlock);
     if (opt_.g2p_reg_cap)
-      g2p_elastic_kernel<D, S, Model, Shape, kElasticCap>
+      g2p_elastic_kernel<D, S, Model, Shape, kElasticCap, kMembers>
           <<<eb, kSplitBlock, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, info_, deferred_, n_deferred_);
     else
-      g2p_elastic_kernel<D, S, Model, Shape, kElastic>
+      g2p_elastic_kernel<D, S, Model, Shape, kElastic, kMembers>
           <<<eb, kSplitBlock, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, info_, deferred_, n_deferred_);
-    g2p_plastic_kernel<D, S, Model, 256, 1><<<cb, opt_.g2p_block, 0, stream_>>>(
+    g2p_plastic_kernel<D, S, Model, 256, 1, kMembers><<<cb, opt_.g2p_block, 0, stream_>>>(
         pv, sp_, ctl_, ids_, info_, deferred_, n_deferred_);
   } else if (!sp_.vol_avg) {
     if (opt_.g2p_reg_cap)
-      g2p_kernel<D, S, Model, Shape, 128, 3><<<cb, opt_.g2p_block, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, info_);
+      g2p_kernel<D, S, Model, Shape, 128, 3, kMembers>
+          <<<cb, opt_.g2p_block, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, info_);
     else
-      g2p_kernel<D, S, Model, Shape, 256, 1><<<cb, opt_.g2p_block, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, info_);
+      g2p_kernel<D, S, Model, Shape, 256, 1, kMembers>
+          <<<cb, opt_.g2p_block, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, info_);
   } else {
     check(cudaMemsetAsync(bins_, 0, sizeof(S) * 2 * nn, stream_), "clear bins");
-    g2p_kinematics_kernel<D, S, Model, Shape><<<pb, kP2GBlock, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, keys_, bins_,
-                                                                             bins_ + nn, status_);
+    g2p_kinematics_kernel<D, S, Model, Shape, kMembers>
+        <<<pb, kP2GBlock, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, keys_, bins_, bins_ + nn, status_);
     if (opt_.g2p_reg_cap)
-      constitutive_kernel<D, S, Model, 128, 3><<<cb, opt_.g2p_block, 0, stream_>>>(
+      constitutive_kernel<D, S, Model, 128, 3, kMembers><<<cb, opt_.g2p_block, 0, stream_>>>(
           pv, sp_, ctl_, ids_, keys_, bins_, bins_ + nn, status_, info_);
     else
-      constitutive_kernel<D, S, Model, 256, 1><<<cb, opt_.g2p_block, 0, stream_>>>(
+      constitutive_kernel<D, S, Model, 256, 1, kMembers><<<cb, opt_.g2p_block, 0, stream_>>>(
           pv, sp_, ctl_, ids_, keys_, bins_, bins_ + nn, status_, info_);
   }
   if (timed) cudaEventRecord(ev_[kG2P1], stream_);
 }
 
-template <int D, class S, class Model, class Shape, bool kBoundary>
-inline std::string CudaRunner<D, S, Model, Shape, kBoundary>::config() const {
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline std::string CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::config() const {
   std::string s = "CUDA options: " + describe(opt_) + "\n";
+  if constexpr (kMembers) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "  ensemble: %d members of %ld points and %ld grid nodes (P2G: no tile mode)\n",
+                  sp_.members.count, sp_.members.particles, sp_.members.nodes);
+    s += buf;
+  }
   if (opt_.g2p_split == CudaOptions::Split::Auto && !sp_.vol_avg) {
     char buf[160];
     std::snprintf(buf, sizeof buf, "  G2P: %s (the fused kernel would run %.2f waves; split from 2)\n",
@@ -380,30 +492,31 @@ inline std::string CudaRunner<D, S, Model, Shape, kBoundary>::config() const {
                          : opt_.p2g == CudaOptions::P2G::Warp ? "P2G (warp)"
                                                               : "P2G (tile)";
   if (opt_.p2g == CudaOptions::P2G::Atomic)
-    s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GAtomic>, kP2GBlock);
+    s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GAtomic, kMembers>, kP2GBlock);
   else if (opt_.p2g == CudaOptions::P2G::Warp)
-    s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GWarp>, kP2GBlock);
-  else
-    s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GTile>, kP2GBlock);
-  s += kernel_info("grid update", grid_kernel<D, S, Model, kBoundary, false>, kGridBlock);
+    s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GWarp, kMembers>, kP2GBlock);
+  else if constexpr (!kMembers)
+    s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GTile, false>, kP2GBlock);
+  s += kernel_info("grid update", grid_kernel<D, S, Model, kBoundary, false, kMembers>, kGridBlock);
   if (split()) {
     if (opt_.g2p_reg_cap)
-      s += kernel_info("G2P + elastic part", g2p_elastic_kernel<D, S, Model, Shape, kElasticCap>, kSplitBlock);
+      s += kernel_info("G2P + elastic part", g2p_elastic_kernel<D, S, Model, Shape, kElasticCap, kMembers>,
+                       kSplitBlock);
     else
-      s += kernel_info("G2P + elastic part", g2p_elastic_kernel<D, S, Model, Shape, kElastic>, kSplitBlock);
-    s += kernel_info("plastic return of the deferred points", g2p_plastic_kernel<D, S, Model, 256, 1>,
+      s += kernel_info("G2P + elastic part", g2p_elastic_kernel<D, S, Model, Shape, kElastic, kMembers>, kSplitBlock);
+    s += kernel_info("plastic return of the deferred points", g2p_plastic_kernel<D, S, Model, 256, 1, kMembers>,
                      opt_.g2p_block);
   } else if (!sp_.vol_avg) {
     if (opt_.g2p_reg_cap)
-      s += kernel_info("G2P + constitutive", g2p_kernel<D, S, Model, Shape, 128, 3>, opt_.g2p_block);
+      s += kernel_info("G2P + constitutive", g2p_kernel<D, S, Model, Shape, 128, 3, kMembers>, opt_.g2p_block);
     else
-      s += kernel_info("G2P + constitutive", g2p_kernel<D, S, Model, Shape, 256, 1>, opt_.g2p_block);
+      s += kernel_info("G2P + constitutive", g2p_kernel<D, S, Model, Shape, 256, 1, kMembers>, opt_.g2p_block);
   } else {
-    s += kernel_info("G2P kinematics", g2p_kinematics_kernel<D, S, Model, Shape>, kP2GBlock);
+    s += kernel_info("G2P kinematics", g2p_kinematics_kernel<D, S, Model, Shape, kMembers>, kP2GBlock);
     if (opt_.g2p_reg_cap)
-      s += kernel_info("constitutive", constitutive_kernel<D, S, Model, 128, 3>, opt_.g2p_block);
+      s += kernel_info("constitutive", constitutive_kernel<D, S, Model, 128, 3, kMembers>, opt_.g2p_block);
     else
-      s += kernel_info("constitutive", constitutive_kernel<D, S, Model, 256, 1>, opt_.g2p_block);
+      s += kernel_info("constitutive", constitutive_kernel<D, S, Model, 256, 1, kMembers>, opt_.g2p_block);
   }
   return s;
 }

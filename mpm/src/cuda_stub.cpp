@@ -10,5 +10,7 @@ std::unique_ptr<Runner> make_cuda_runner(const SceneSetup&, const CudaOptions&) 
 }
 bool cuda_backend_available() { return false; }
 bool cuda_memory_info(std::size_t&, std::size_t&) { return false; }
+int cuda_device_count() { return 0; }
+void cuda_select_device(int) {}
 
 }  // namespace granflow::mpm

@@ -40,7 +40,7 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
   const bool files = !opt.out_dir.empty();
   if (files) {
     io::make_folder(opt.out_dir);
-    for (int k = 0; k < nm; ++k) io::make_folder(member_dir(opt.out_dir, k));
+    for (int k = 0; k < nm; ++k) io::make_folder(member_dir(opt.out_dir, opt.first_member + k));
   }
 
   double t_release = 0;
@@ -112,7 +112,7 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
       if (!alive[k]) continue;
       char name[64];
       std::snprintf(name, sizeof name, "frame_%04d%s.vtu", pvd_count[k]++, tag.c_str());
-      const std::string dir = member_dir(opt.out_dir, k);
+      const std::string dir = member_dir(opt.out_dir, opt.first_member + k);
       write_vtu(dir + "/" + name, member_frame(full, k, np), sc.output.binary);
       pvd[k].emplace_back(t, name);
       write_pvd(dir + "/frames.pvd", pvd[k]);
@@ -244,7 +244,7 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
       m.wall_s = sum.wall_s;
     }
     if (!files) continue;
-    const std::string dir = member_dir(opt.out_dir, k);
+    const std::string dir = member_dir(opt.out_dir, opt.first_member + k);
     write_series_csv(dir, ms[k].scene, m.series, m.tracks);
     write_profile_csv(dir + "/profile_final.csv", m.profile);
   }

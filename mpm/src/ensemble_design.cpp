@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -328,17 +329,26 @@ EnsembleDesign parse_design(const std::string& toml_text, const std::string& nam
   return read_design(TomlTable::parse_text(toml_text, name), name);
 }
 
+std::string format_exact(double v) {
+  // The fewest significant digits (15 to 17) that read back to the same double (snprintf, not
+  // std::to_chars: the GPU machine's host compiler may predate floating-point to_chars; the
+  // program keeps the C locale).
+  char buf[40];
+  for (int digits = 15; digits < 17; ++digits) {
+    std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+    if (std::strtod(buf, nullptr) == v) return buf;
+  }
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
 std::vector<std::string> member_overrides(const EnsembleDesign& d, long member) {
   if (member < 0 || member >= static_cast<long>(d.values.size()))
     throw std::out_of_range("member_overrides: member " + std::to_string(member) + " of " +
                             std::to_string(d.values.size()));
   std::vector<std::string> out;
   for (std::size_t j = 0; j < d.vary.size(); ++j) {
-    char buf[40];
-    // 17 significant digits read back to the same double (snprintf, not std::to_chars: the GPU
-    // machine's host compiler may predate floating-point to_chars; the program keeps the C locale)
-    std::snprintf(buf, sizeof buf, "%.17g", d.values[member][j]);
-    out.push_back(d.vary[j].key + "=" + buf);
+    out.push_back(d.vary[j].key + "=" + format_exact(d.values[member][j]));
   }
   return out;
 }

@@ -8,13 +8,22 @@
 // 0.65 %) is compared with an ensemble of such perturbed CPU runs: the GPU must lie within the
 // ensemble's range widened by 0.5 %. Two cases add a frictional floor and a gate lifted during
 // the collapse (the contact grid kernel, and the step's time in graphs and spans).
+// Ensemble runs (ensemble.hpp: 4 members of the column differing in phi_c and e0; one case also
+// in floor friction and gate speed): the GPU ensemble against the CPU twin's ensemble and each
+// member against the GPU single run of its scene, with the same tolerances; a member thrown out
+// of the grid must fail alone, at the step of the CPU twin (give or take 2), and leave the
+// others as their single runs. --ensembles runs these cases only; --short shortens the collapse.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <vector>
 
 #include <granflow/mpm/driver.hpp>
+#include <granflow/mpm/ensemble.hpp>
+#include <granflow/mpm/kernels.hpp>
 
 using namespace granflow::mpm;
 
@@ -36,6 +45,238 @@ struct Range {
   void add(double v) { lo = std::min(lo, v); hi = std::max(hi, v); }
   bool holds(double v, double tol) const { return v >= lo * (1 - tol) && v <= hi * (1 + tol); }
 };
+
+// CUDA options other than the defaults, as the cases spell them.
+CudaOptions cuda_options(const char* s) {
+  CudaOptions co;
+  if (std::strstr(s, "sort 0,")) co.sort_every = 0;
+  if (std::strstr(s, "sort 1,")) co.sort_every = 1;
+  if (std::strstr(s, "sort 32,")) co.sort_every = 32;
+  if (std::strstr(s, "p2g tile")) co.p2g = CudaOptions::P2G::Tile;
+  if (std::strstr(s, "sort 7,")) co.sort_every = 7;
+  if (std::strstr(s, "p2g warp")) co.p2g = CudaOptions::P2G::Warp;
+  if (std::strstr(s, "p2g atomic")) co.p2g = CudaOptions::P2G::Atomic;
+  if (std::strstr(s, "graphs off")) co.graphs = false;
+  if (std::strstr(s, "g2p-regcap on")) co.g2p_reg_cap = true;
+  if (std::strstr(s, "graph-steps 4")) co.graph_steps = 4;
+  if (std::strstr(s, "g2p-split on")) co.g2p_split = CudaOptions::Split::On;
+  if (std::strstr(s, "g2p-split off")) co.g2p_split = CudaOptions::Split::Off;
+  return co;
+}
+
+// ---- ensembles -------------------------------------------------------------------------------
+
+// Steps of a fixed-step span from t to t_until, landing on t_land, at most cap (as the driver's
+// span_length counts them).
+long fixed_steps(double t, double dt, double t_land, double t_until, long cap) {
+  long n = 0;
+  while (n < cap) {
+    t += span_step_size(t, dt, t_land);
+    ++n;
+    if (span_reached(t, t_until)) break;
+  }
+  return n;
+}
+
+struct MemberFail {
+  MemberFailure f;
+  long step = 0;  // the step it failed in (1: the first)
+};
+
+struct Drive {
+  bool ok = true;  // no failure that no member owns
+  std::string message;
+  long steps = 0;
+  double wall_s = 0;
+  std::vector<MemberFail> failed;
+  HostParticles at_failure;  // the state right after the last retirement
+};
+
+// The scene's stages with its fixed step, in spans up to each stage's end (no samples: the same
+// steps for every runner). A failed span retires the members that failed in its last step; the
+// others took that step, so the ensemble goes on from its end. A failure no member owns (a
+// single run) stops the run.
+Drive drive(const SceneSetup& su, Runner& r) {
+  const auto w0 = std::chrono::steady_clock::now();
+  const Scene& sc = su.scene;
+  Drive out;
+  double t = 0, t_end = 0;
+  for (size_t si = 0; si < sc.stages.size() && out.ok; ++si) {
+    const Stage& st = sc.stages[si];
+    r.set_stage(static_cast<int>(si), st.damping, st.flip.value_or(sc.flip));
+    t_end += st.duration;
+    while (t < t_end - 1e-12 * t_end) {
+      Span s;
+      s.t = t;
+      s.dt = sc.dt;
+      s.t_land = t_end;
+      s.t_until = t_end - 1e-12 * t_end;
+      s.max_steps = fixed_steps(s.t, s.dt, s.t_land, s.t_until, 10000);
+      const SpanResult res = r.advance_span(s);
+      out.steps += res.steps;
+      if (res.ok) {
+        t = res.t;
+        continue;
+      }
+      const std::vector<MemberFailure> f = r.retire_failed_members();
+      if (f.empty()) {
+        out.ok = false;
+        out.message = "particle " + std::to_string(res.particle) + " at step " + std::to_string(out.steps) + ": " +
+                      status_field(res.status);
+        break;
+      }
+      for (const MemberFailure& m : f) out.failed.push_back({m, out.steps});
+      if (!r.retire_failed_members().empty()) {
+        out.ok = false;
+        out.message = "a second retire_failed_members() returned members again";
+        break;
+      }
+      r.download(out.at_failure);
+      t = res.t + res.h_last;
+    }
+  }
+  out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+  return out;
+}
+
+struct Agreement {
+  double runout = 0, height = 0;  // relative differences
+  long far = 0;                   // points more than h/4 apart (original order)
+  double ra = 0, rb = 0;          // the run-outs
+};
+
+// Two frames of one member's scene (positions in the original order).
+Agreement agree(const Frame& a, const Frame& b, const SceneSetup& su) {
+  Agreement g;
+  const Measures ma = measure(a, su, su.particles.m), mb = measure(b, su, su.particles.m);
+  g.ra = ma.runout;
+  g.rb = mb.runout;
+  g.runout = std::fabs(mb.runout - ma.runout) / ma.runout;
+  g.height = std::fabs(mb.height - ma.height) / ma.height;
+  const long n = a.n;
+  for (long i = 0; i < n; ++i)
+    if (std::hypot(a.x[i] - b.x[i], a.x[n + i] - b.x[n + i]) > 0.25 * su.scene.h) ++g.far;
+  return g;
+}
+
+struct EnsembleCase {
+  ModelKind model;
+  ShapeKind shape;
+  Precision precision;
+  const char* cuda;          // CUDA options other than the defaults
+  bool boundaries = false;   // floor friction and lifted gate, per member
+  bool vol_avg = false;      // volumetric averaging: 0.1 s of collapse (round-off grows later)
+  int failing = -1;          // this member is thrown upwards out of the grid
+};
+
+constexpr int kEnsembleMembers = 4;
+
+// Member k: phi_c + k degrees, e0 - 0.01 k; with boundaries a floor of mu 0.3 + 0.1 k and the
+// gate lifted at 0.8 + 0.2 k m/s in the collapse. The failing member's points start at 3 m/s
+// upwards: they leave the grid after about 600 steps (CPU twin: step 594, in the consolidation).
+SceneSetup member_setup(const EnsembleCase& c, int k, bool short_run) {
+  Scene sc = small_column_scene(c.model, c.shape);
+  sc.precision = c.precision;
+  sc.volumetric_averaging = c.vol_avg;
+  sc.material.params.f.phi_c += k * M_PI / 180;
+  sc.material.e0 -= 0.01 * k;
+  if (c.boundaries) {
+    sc.walls[2].mu = 0.3 + 0.1 * k;
+    sc.stages[1].gate = sc.stages[0].gate;
+    sc.stages[1].gate->lift_speed = 0.8 + 0.2 * k;
+  }
+  if (short_run || c.vol_avg) sc.stages.back().duration = 0.1;
+  SceneSetup su = make_setup(sc);
+  if (k == c.failing)
+    for (long i = 0; i < su.particles.n; ++i) su.particles.v[su.particles.n + i] = 3.0;
+  return su;
+}
+
+// One ensemble case; prints a line per case and per member, returns whether it passed.
+bool ensemble_case(const EnsembleCase& c, bool short_run, double tol) {
+  std::vector<SceneSetup> ms;
+  for (int k = 0; k < kEnsembleMembers; ++k) ms.push_back(member_setup(c, k, short_run));
+  const SceneSetup en = make_ensemble_setup(ms);
+  const long np = ms[0].particles.n;
+  const CudaOptions co = cuda_options(c.cuda);
+  auto cpu = make_cpu_runner(en);
+  auto gpu = make_cuda_runner(en, co);
+  const Drive dc = drive(en, *cpu);
+  const Drive dg = drive(en, *gpu);
+  Frame fc, fg;
+  cpu->frame(fc, false);
+  gpu->frame(fg, false);
+  HostParticles hg;
+  gpu->download(hg);
+  bool ok = dc.ok && dg.ok && gpu->nodes() == kEnsembleMembers * ms[0].n_nodes &&
+            gpu->particles() == kEnsembleMembers * np;
+  std::string lines;
+  double single_wall = 0;
+  Agreement worst_cpu, worst_single;
+  char buf[1024];
+  for (int k = 0; k < kEnsembleMembers; ++k) {
+    auto single = make_cuda_runner(ms[k], co);
+    const Drive ds = drive(ms[k], *single);
+    single_wall += ds.wall_s;
+    Frame fs;
+    single->frame(fs, false);
+    const Frame ck = member_frame(fc, k, np), gk = member_frame(fg, k, np);
+    auto fail_of = [k](const Drive& d) -> const MemberFail* {
+      for (const MemberFail& f : d.failed)
+        if (f.f.member == k) return &f;
+      return nullptr;
+    };
+    const MemberFail* fcpu = fail_of(dc);
+    const MemberFail* fgpu = fail_of(dg);
+    if (k != c.failing) {
+      const Agreement a = agree(ck, gk, ms[k]), b = agree(fs, gk, ms[k]);
+      const bool mok = !fcpu && !fgpu && ds.ok && a.runout <= tol && a.height <= tol && a.far <= np / 10 &&
+                       b.runout <= tol && b.height <= tol && b.far <= np / 10;
+      ok = ok && mok;
+      worst_cpu.runout = std::max(worst_cpu.runout, a.runout);
+      worst_cpu.height = std::max(worst_cpu.height, a.height);
+      worst_cpu.far = std::max(worst_cpu.far, a.far);
+      worst_single.runout = std::max(worst_single.runout, b.runout);
+      worst_single.height = std::max(worst_single.height, b.height);
+      worst_single.far = std::max(worst_single.far, b.far);
+      std::snprintf(buf, sizeof buf,
+                    "  member %d: run-out cpu ensemble %.5f m, gpu ensemble %.5f m, gpu single %.5f m | vs cpu: %.2e / "
+                    "%.2e, %ld points > h/4 | vs single: %.2e / %.2e, %ld points%s%s\n",
+                    k, a.ra, a.rb, b.ra, a.runout, a.height, a.far, b.runout, b.height, b.far,
+                    mok ? "" : "  <- differs", ds.ok ? "" : ("; single run: " + ds.message).c_str());
+    } else {
+      // fails alone, at the CPU twin's step (give or take 2) with a particle of the same row,
+      // as its single run does; its points stay where the failed step left them
+      const long n = en.particles.n;
+      const bool same = fcpu && fgpu && std::labs(fcpu->step - fgpu->step) <= 2 &&
+                        std::fabs(en.particles.x[n + fcpu->f.particle] - en.particles.x[n + fgpu->f.particle]) < 1e-9;
+      const bool single_too = !ds.ok && fgpu && std::labs(ds.steps - fgpu->step) <= 2;
+      bool frozen = fgpu && dg.at_failure.n == n;
+      for (long i = k * np; frozen && i < (k + 1) * np; ++i)
+        frozen = hg.x[i] == dg.at_failure.x[i] && hg.x[n + i] == dg.at_failure.x[n + i];
+      const bool mok = same && single_too && frozen && dc.failed.size() == 1 && dg.failed.size() == 1;
+      ok = ok && mok;
+      std::snprintf(buf, sizeof buf,
+                    "  member %d (thrown out of the grid): cpu ensemble step %ld particle %ld (%s) | gpu ensemble step "
+                    "%ld particle %ld (%s) | gpu single: %s | retired points unchanged since: %s%s\n",
+                    k, fcpu ? fcpu->step : -1L, fcpu ? fcpu->f.particle : -1L,
+                    fcpu ? status_field(fcpu->f.status) : "-",
+                    fgpu ? fgpu->step : -1L, fgpu ? fgpu->f.particle : -1L, fgpu ? status_field(fgpu->f.status) : "-",
+                    ds.ok ? "did not fail" : ds.message.c_str(), frozen ? "yes" : "no", mok ? "" : "  <- differs");
+    }
+    lines += buf;
+  }
+  std::printf("ensemble of %d: %-44s %-9s %-5s %s%s%s | cpu %.2f s, gpu %.2f s, %d gpu single runs %.2f s | worst "
+              "rel. diff vs cpu %.2e / %.2e, vs single %.2e / %.2e %s\n",
+              kEnsembleMembers, en.scene.name.c_str(), c.shape == ShapeKind::Linear ? "linear" : "quadratic",
+              precision_name(c.precision), c.vol_avg ? "vol-avg " : "", c.boundaries ? "floor mu, gate speed " : "",
+              c.cuda, dc.wall_s, dg.wall_s, kEnsembleMembers, single_wall, worst_cpu.runout, worst_cpu.height,
+              worst_single.runout, worst_single.height, ok ? "OK" : "FAIL");
+  std::fputs(lines.c_str(), stdout);
+  if (!dc.ok) std::printf("  cpu: %s\n", dc.message.c_str());
+  if (!dg.ok) std::printf("  gpu: %s\n", dg.message.c_str());
+  return ok;
+}
 
 }  // namespace
 
@@ -66,21 +307,15 @@ int main(int argc, char** argv) {
                         {ModelKind::Frictional, ShapeKind::Linear, false, "g2p-split on, g2p-regcap on, sort 0, p2g atomic"},
                         {ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, false, "", true},
                         {ModelKind::Frictional, ShapeKind::Linear, false, "graphs off", true}};
-  const bool short_run = argc > 1 && std::strcmp(argv[1], "--short") == 0;
+  // --short: 0.1 s of collapse; --ensembles: the ensemble cases only (e.g. under compute-sanitizer)
+  bool short_run = false, ensembles_only = false;
+  for (int i = 1; i < argc; ++i) {
+    short_run = short_run || std::strcmp(argv[i], "--short") == 0;
+    ensembles_only = ensembles_only || std::strcmp(argv[i], "--ensembles") == 0;
+  }
   for (const Case& c : cases) {
-    CudaOptions co;
-    if (std::strstr(c.cuda, "sort 0,")) co.sort_every = 0;
-    if (std::strstr(c.cuda, "sort 1,")) co.sort_every = 1;
-    if (std::strstr(c.cuda, "sort 32,")) co.sort_every = 32;
-    if (std::strstr(c.cuda, "p2g tile")) co.p2g = CudaOptions::P2G::Tile;
-    if (std::strstr(c.cuda, "sort 7,")) co.sort_every = 7;
-    if (std::strstr(c.cuda, "p2g warp")) co.p2g = CudaOptions::P2G::Warp;
-    if (std::strstr(c.cuda, "p2g atomic")) co.p2g = CudaOptions::P2G::Atomic;
-    if (std::strstr(c.cuda, "graphs off")) co.graphs = false;
-    if (std::strstr(c.cuda, "g2p-regcap on")) co.g2p_reg_cap = true;
-    if (std::strstr(c.cuda, "graph-steps 4")) co.graph_steps = 4;
-    if (std::strstr(c.cuda, "g2p-split on")) co.g2p_split = CudaOptions::Split::On;
-    if (std::strstr(c.cuda, "g2p-split off")) co.g2p_split = CudaOptions::Split::Off;
+    if (ensembles_only) break;
+    const CudaOptions co = cuda_options(c.cuda);
     Scene sc = small_column_scene(c.model, c.shape);
     sc.volumetric_averaging = c.vol_avg;
     if (c.boundaries) {
@@ -139,7 +374,7 @@ int main(int argc, char** argv) {
     if (!b.ok) std::printf("  gpu: %s\n", b.message.c_str());
     fails += ok ? 0 : 1;
   }
-  {
+  if (!ensembles_only) {
     // a falling block leaves the grid: the first bad particle and the step, in the original order
     Scene sc = small_column_scene(ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline);
     sc.walls.clear();
@@ -165,6 +400,20 @@ int main(int argc, char** argv) {
     std::printf("falling block: cpu particle %ld step %ld | gpu particle %ld step %ld %s\n  cpu: %s\n  gpu: %s\n", pa,
                 sa, pb, sb, ok ? "OK" : "FAIL", a.message.c_str(), b.message.c_str());
     fails += ok ? 0 : 1;
+  }
+  {
+    using MK = ModelKind;
+    using SK = ShapeKind;
+    using PR = Precision;
+    const EnsembleCase ens[] = {{MK::PhaseTransition, SK::Linear, PR::FP64, ""},
+                                {MK::Frictional, SK::Linear, PR::FP64, "g2p-split on"},
+                                {MK::PhaseTransition, SK::Linear, PR::FP32, "sort 1, p2g atomic, graphs off"},
+                                {MK::Frictional, SK::Linear, PR::FP32, ""},
+                                {MK::PhaseTransition, SK::QuadraticBSpline, PR::FP64, "p2g tile", true},
+                                {MK::Frictional, SK::QuadraticBSpline, PR::Mixed, "sort 7, graph-steps 4"},
+                                {MK::PhaseTransition, SK::Linear, PR::FP64, "", false, true},
+                                {MK::PhaseTransition, SK::Linear, PR::FP64, "", false, false, 2}};
+    for (const EnsembleCase& c : ens) fails += ensemble_case(c, short_run, tol) ? 0 : 1;
   }
   return fails == 0 ? 0 : 1;
 }

@@ -2,6 +2,10 @@
 // names the file and the line (CSV) or the file, line and key (job).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
 #include <granflow/calibration/fit.hpp>
 #include <granflow/calibration/job.hpp>
 
@@ -177,6 +181,57 @@ TEST_F(BadInput, JobBadAlgorithm) {
   expect_input_error([&] { load_job(job(kGoodCsv, "params = \"collisional_element\"\n[algorithm\n")); },
                      {"job.toml:2", "TOML syntax error"});
   expect_input_error([&] { load_job(job(kGoodCsv, "params = \"no_such_set\"\n")); }, {"'params'", "no such file"});
+}
+
+// The ensemble method's keys: every error names the file, the line of the key and the key.
+TEST_F(BadInput, JobBadEnsembleKeys) {
+  auto ens = [&](const std::string& tables) {
+    std::string t = job_text(tables);
+    t.replace(t.find("[algorithm]\n"), 12, "[algorithm]\nmethod = \"ensemble\"\n");
+    return job(kGoodCsv, t);
+  };
+  // "job.toml:<line of the key>:"
+  auto at = [&](const std::string& key_text) {
+    const std::string t = [&] {
+      std::ifstream in(dir.path("job.toml"));
+      std::stringstream ss;
+      ss << in.rdbuf();
+      return ss.str();
+    }();
+    const std::size_t pos = t.find(key_text);
+    return "job.toml:" + std::to_string(1 + std::count(t.begin(), t.begin() + static_cast<long>(pos), '\n')) + ":";
+  };
+  const CalibrationJob good = load_job(ens("[ensemble]\nmembers = 16\niterations = 2\nseed = 4\npolish = false\n"
+                                           "transform = \"logit\"\n[likelihood]\nrelative_sd = 0.1\n"));
+  EXPECT_EQ(good.algorithm.method, "ensemble");
+  EXPECT_EQ(good.ensemble.members, 16);
+  EXPECT_EQ(good.ensemble.iterations, 2);
+  EXPECT_FALSE(good.ensemble.polish);
+  EXPECT_EQ(good.ensemble.transform, "logit");
+  EXPECT_DOUBLE_EQ(good.likelihood.relative_sd, 0.1);
+
+  std::string p = ens("[ensemble]\nmember = 16\n");
+  expect_input_error([&] { load_job(p); }, {at("member = 16"), "unknown key 'ensemble.member'"});
+  p = ens("[ensemble]\nmembers = 1\n");
+  expect_input_error([&] { load_job(p); }, {at("members = 1"), "'ensemble.members'", "must be in [2,"});
+  p = ens("[ensemble]\niterations = 0\n");
+  expect_input_error([&] { load_job(p); }, {at("iterations = 0"), "'ensemble.iterations'", "must be in [1,"});
+  p = ens("[ensemble]\ntransform = \"tanh\"\n");
+  expect_input_error([&] { load_job(p); }, {at("transform ="), "'ensemble.transform'", "'probit'"});
+  p = ens("[likelihood]\nrelative_sd = 0\n");
+  expect_input_error([&] { load_job(p); }, {at("relative_sd = 0"), "'likelihood.relative_sd'", "must be > 0"});
+  p = ens("[likelihood]\nrelative_sd = -0.1\n");
+  expect_input_error([&] { load_job(p); }, {at("relative_sd = -0.1"), "'likelihood.relative_sd'", "must be > 0"});
+  p = ens("[likelihood]\nrel_sd = 0.1\n");
+  expect_input_error([&] { load_job(p); }, {at("rel_sd"), "unknown key 'likelihood.rel_sd'"});
+  p = job(kGoodCsv, job_text("", "", "target_sd = { p = 0.0 }\n"));
+  expect_input_error([&] { load_job(p); }, {at("target_sd"), "'experiments[0].target_sd.p'", "must be > 0"});
+  p = job(kGoodCsv, job_text("", "", "target_sd = { T = 0.1 }\n"));
+  expect_input_error([&] { load_job(p); }, {at("target_sd"), "'experiments[0].target_sd.T'", "not a target column"});
+  std::string t = job_text();
+  t.replace(t.find("[algorithm]\n"), 12, "[algorithm]\nmethod = \"mcmc\"\n");
+  p = job(kGoodCsv, t);
+  expect_input_error([&] { load_job(p); }, {at("method ="), "'algorithm.method'", "'nlopt', 'ensemble'"});
 }
 
 TEST_F(BadInput, OutputsAreNotOverwrittenWithoutForce) {

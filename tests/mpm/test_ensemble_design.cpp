@@ -194,7 +194,7 @@ TEST(EnsembleDesign, ListTakesTheValuesAsWritten) {
   EXPECT_EQ(d.method, "list");
   ASSERT_EQ(d.members, 3);
   EXPECT_EQ(d.values, (std::vector<std::vector<double>>{{29.0, 0.1}, {31.0, 0.2}, {33.0, 0.3}}));
-  EXPECT_EQ(member_overrides(d, 1), (std::vector<std::string>{"frictional.phi_c_deg=31", "wall[0].mu=0.20000000000000001"}));
+  EXPECT_EQ(member_overrides(d, 1), (std::vector<std::string>{"frictional.phi_c_deg=31", "wall[0].mu=0.2"}));
   EXPECT_EQ(d.vary[1].line, 6);
 }
 

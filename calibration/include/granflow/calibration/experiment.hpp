@@ -86,6 +86,7 @@ struct DataSelection {
   double reversal_tolerance = 0;    // a move back by more than this starts a new run
   std::vector<std::pair<std::string, std::string>> targets;  // data column -> model output
   std::vector<double> target_weights;
+  std::vector<double> target_sd;  // per target: Curve::sd (NaN: the job's default)
   double weight = 1.0;
 };
 

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -16,6 +17,7 @@
 
 #include <granflow/io/run_folder.hpp>
 
+#include "ensemble_method.hpp"
 #include "experiment.hpp"
 #include "job.hpp"
 
@@ -72,6 +74,12 @@ class Objective {
 
   Evaluation evaluate(const std::vector<double>& theta) const;  // full detail
   double misfit(const std::vector<double>& theta) const { return evaluate(theta).misfit; }
+  // Every experiment's prediction for many parameter vectors, [set][experiment]: batched
+  // experiments get one predict_batch call with all sets (on this thread, first), the others
+  // one task per set x experiment on the pool. An exception becomes ok = false.
+  std::vector<std::vector<Prediction>> predict_many(const std::vector<std::vector<double>>& thetas) const;
+  // The misfit, residuals, RMSE and R2 of one set's predictions ([experiment]).
+  Evaluation assess(const std::vector<Prediction>& predictions) const;
 
   struct CurveRef {
     std::size_t experiment, curve;
@@ -102,6 +110,27 @@ struct Identifiability {
   long evaluations = 0;
 };
 
+// What the ensemble method adds to a FitResult (algorithm.method = "ensemble").
+struct EnsembleReport {
+  EnsembleResult result;             // iterations, final members (physical units), summary
+  std::vector<double> data, sd;      // per datum in the misfit's scale (ln y for a log misfit)
+  std::vector<Evaluation> members;   // final members' curves (empty for a failed member)
+  std::vector<double> best;          // best final member, before the polish
+  double best_misfit = 0;            // its chi-square, sum ((g - d) / sd)^2
+  double fitted_misfit = 0;          // chi-square of the written set (after the polish)
+  long polish_evaluations = 0;
+  std::string polish;                // what the polish did, or why it was skipped
+};
+
+// The data vector of the ensemble method, one entry per point in the order of the residuals
+// (experiments in job order, their curves, the points by abscissa): ln y for a log misfit, else
+// y; sd from Curve::sd (data units; divided by y for a log misfit) or the job's likelihood.
+// Throws an InputError for a curve whose default sd would be 0.
+void likelihood_data(const Objective& objective, std::vector<double>& data, std::vector<double>& sd);
+// One set's predictions in that order and scale; false (with `why`) when any point is undefined.
+bool prediction_vector(const Objective& objective, const std::vector<Prediction>& predictions,
+                       std::vector<double>& out, std::string& why);
+
 struct FitOptions {
   bool progress = true;        // progress line on stderr
   bool evaluate_only = false;  // no optimisation: report the misfit and identifiability at the start values
@@ -117,13 +146,26 @@ struct FitResult {
   io::ParameterSet fitted;
   std::string stop_reason;
   unsigned threads = 1;
+  std::shared_ptr<const EnsembleReport> ensemble;  // set by the ensemble method
 };
 
+// The job's method: NLopt global + local search, or (algorithm.method = "ensemble") ES-MDA with
+// the best member, polished, as the result. Without NLopt in the build only the latter runs.
 FitResult fit(const Objective& objective, const FitOptions& options);
+FitResult fit_ensemble(const Objective& objective, const FitOptions& options);
 Identifiability identifiability(const Objective& objective, const std::vector<double>& theta, double step);
 
+namespace detail {
+// LN_BOBYQA on f over the unit cube from u (fu = f(u)) with at most max_evaluations calls; u and
+// fu become the best point seen. False (nothing done, note says why) without NLopt in the build.
+bool polish_bobyqa(const std::function<double(const std::vector<double>&)>& f, std::vector<double>& u, double& fu,
+                   long max_evaluations, const std::vector<double>& step, double xtol_rel, std::string& note);
+}  // namespace detail
+
 // Writes fitted TOML, report.txt, report_curves.csv, report_parameters.csv, correlation.csv,
-// sensitivity.csv, curves.csv and fit.png into the folder's staging folder, then commits it
+// sensitivity.csv, curves.csv and fit.png (with an ensemble also posterior.csv,
+// posterior_summary.csv, posterior_correlation.csv, iterations.csv, ensemble_curves.csv,
+// posterior.png and ensemble_fit.png) into the folder's staging folder, then commits it
 // (manifest, swapped in). An undefined number (NaN, inf) is written as an empty cell.
 void write_outputs(const Objective& objective, const FitResult& result, io::StagedFolder& folder, bool plot = true);
 // The same into `dir`, locked and staged here; refuses an existing `dir` unless `force` and it
@@ -131,7 +173,8 @@ void write_outputs(const Objective& objective, const FitResult& result, io::Stag
 void write_outputs(const Objective& objective, const FitResult& result, const std::string& dir,
                    bool force, bool plot = true);
 
-// The text report (also printed by the command).
+// The text report (also printed by the command); with an ensemble, format_ensemble_report at its end.
 std::string format_report(const Objective& objective, const FitResult& result);
+std::string format_ensemble_report(const Objective& objective, const FitResult& result);
 
 }  // namespace granflow::calibration

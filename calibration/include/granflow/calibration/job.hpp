@@ -36,6 +36,8 @@ struct MisfitSpec {
 };
 
 struct AlgorithmSpec {
+  std::string method = "nlopt";         // "nlopt": the fit below; "ensemble": ES-MDA ([ensemble], [likelihood])
+  long method_line = 0;                 // its line in the job file (messages)
   std::string global = "GN_CRS2_LM";    // or "none"
   std::string local = "LN_BOBYQA";      // or "none"
   long global_evaluations = 500;
@@ -48,6 +50,23 @@ struct AlgorithmSpec {
   double fd_step = 1e-4;                // relative step of the finite-difference Jacobian at the optimum
 };
 
+// The ensemble method (docs/calibration_ensemble.md).
+struct EnsembleSpec {
+  long members = 64;
+  int iterations = 4;
+  unsigned long seed = 1;
+  bool polish = true;              // LN_BOBYQA from the best final member (where NLopt is built)
+  long polish_evaluations = 100;
+  std::string transform = "probit";  // coordinates of the update: "probit" or "logit" of the unit coordinate
+};
+
+// Gaussian likelihood of the ensemble method: the sd of each datum in the misfit's scale.
+// Curve::sd (data units) where given; else log misfit: relative_sd (the sd of ln y),
+// linear misfit: relative_sd x the curve's RMS.
+struct LikelihoodSpec {
+  double relative_sd = 0.02;
+};
+
 struct CalibrationJob {
   std::string file;         // the job file
   std::string name;
@@ -58,6 +77,8 @@ struct CalibrationJob {
   std::vector<std::shared_ptr<const Experiment>> predictions;
   MisfitSpec misfit;
   AlgorithmSpec algorithm;
+  EnsembleSpec ensemble;
+  LikelihoodSpec likelihood;
   std::string output_name = "fitted";  // stem of the fitted parameter file
 };
 

@@ -27,6 +27,7 @@ struct EnsembleOptions {
   bool frames = false;     // VTU frames per member at the scene's output times
   long max_span = 10000;
   const volatile std::sig_atomic_t* interrupt = nullptr;  // non-zero: stop, write what was sampled
+  int first_member = 0;    // number of the first member in folder names (a group of a larger design)
 };
 
 struct MemberSummary {

@@ -39,7 +39,9 @@ struct EnsembleDesign {
 EnsembleDesign load_design(const std::string& path);
 // The same from TOML text; `name` stands for the file in messages.
 EnsembleDesign parse_design(const std::string& toml_text, const std::string& name);
-// "key=value" for every variable, the value printed with %.17g (reads back bit-exactly).
+// A double in the fewest significant digits (15 to 17) that read back to it exactly.
+std::string format_exact(double v);
+// "key=value" for every variable, the value printed with format_exact (reads back bit-exactly).
 std::vector<std::string> member_overrides(const EnsembleDesign& d, long member);
 
 // Unit-cube samplers: n points of dims coordinates, points[i][d] in [0, 1).

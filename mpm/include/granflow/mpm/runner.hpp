@@ -260,5 +260,8 @@ std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& setup, const CudaOpti
 bool cuda_backend_available();
 // Free and total memory of the current CUDA device; false without CUDA or a device.
 bool cuda_memory_info(std::size_t& free, std::size_t& total);
+// Visible CUDA devices (0 without CUDA); the device of the calling thread's later CUDA work.
+int cuda_device_count();
+void cuda_select_device(int device);
 
 }  // namespace granflow::mpm
