@@ -1,5 +1,6 @@
 // granflow calibrate: fit a parameter set to measured curves (issue 4; docs/calibration.md), by
 // NLopt or by the ensemble method (docs/calibration_ensemble.md; the only one without NLopt).
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -9,6 +10,7 @@
 #include <granflow/calibration/fit.hpp>
 #include <granflow/calibration/job.hpp>
 #include <granflow/calibration/synthesize.hpp>
+#include <granflow/calibration/test_report.hpp>
 
 #include "commands.hpp"
 #include <granflow/io/input_error.hpp>
@@ -60,6 +62,13 @@ void run_calibrate(const CalibrateOptions& o) {
   fo.evaluate_only = o.evaluate;
   const FitResult r = fit(obj, fo);
   if (!o.quiet) std::cout << format_report(obj, r);
+  const bool per_test = !job.predictions.empty() ||
+                        std::any_of(job.free.begin(), job.free.end(), [](const auto& p) { return !p.experiment.empty(); });
+  if (per_test) {  // held-out tests or per-test e0: the per-test report (tests.csv, PNGs) beside the fit's
+    const TestReport tr = evaluate_tests(job, obj.parameters_at(r.theta));
+    if (!o.quiet) std::cout << format_test_report(tr);
+    write_test_report(tr, obj.parameters_at(r.theta), folder.staging(), !o.no_plot);
+  }
   write_outputs(obj, r, folder, !o.no_plot);
   std::cerr << "calibrate: wrote " << out << "/" << job.output_name << ".toml and the reports in " << out << "/\n";
 }
@@ -68,7 +77,7 @@ void run_bench(const CalibrateOptions& o) {
   using namespace calibration;
   const std::string dir = io::data_directory() + "/calibration/";
   const char* jobs[] = {"dem_collisional_mu0.toml", "dem_collisional_mu05.toml", "frictional_synthetic.toml",
-                        "frictional_synthetic_ensemble.toml"};
+                        "frictional_synthetic_ensemble.toml", "kfs_fit.toml"};
   std::printf("%-36s %8s %8s %10s %12s %12s %9s\n", "job", "threads", "params", "evals", "misfit0", "misfit", "time[s]");
   for (const char* name : jobs) {
     try {
@@ -98,7 +107,8 @@ void register_calibrate(CLI::App& app) {
   cmd->add_flag("--no-plot", o->no_plot, "Do not draw fit.png");
   cmd->add_flag("--quiet", o->quiet, "No progress line, no report on stdout");
   cmd->add_flag("--evaluate", o->evaluate, "Only evaluate the starting set (misfit, RMSE, R2, identifiability); no fit");
-  cmd->add_flag("--bench", o->bench, "Time the shipped DEM and synthetic-frictional fits (and the ensemble job) and print the figures");
+  cmd->add_flag("--bench", o->bench,
+                "Time the shipped DEM, synthetic-frictional and measured-sand fits (and the ensemble job) and print the figures");
   cmd->add_option("--synthesize", o->synthesize,
                   "Write the job's element-test data files from this parameter set instead of fitting");
   cmd->add_option("--noise", o->noise, "Relative noise of --synthesize")->capture_default_str();

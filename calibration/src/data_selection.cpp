@@ -48,6 +48,27 @@ void check_header(const std::string& path, const std::vector<std::string>& names
 
 }  // namespace
 
+std::vector<int> abscissa_branches(const std::vector<double>& x, double tolerance) {
+  std::vector<int> b(x.size(), 0);
+  int branch = 0, dir = 0;
+  double ext = x.empty() ? 0.0 : x.front();  // extreme of the current run
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double d = x[i] - ext;
+    if (dir == 0) {
+      if (std::fabs(d) > tolerance) dir = d > 0 ? 1 : -1;
+      if (dir != 0 || i == 0) ext = x[i];
+    } else if (dir * d > 0) {
+      ext = x[i];
+    } else if (-dir * d > tolerance) {  // moved back beyond the tolerance: a new run from here
+      ++branch;
+      dir = -dir;
+      ext = x[i];
+    }
+    b[i] = branch;
+  }
+  return b;
+}
+
 double Experiment::x_max() const {
   double m = -1e300;
   for (const auto& c : curves)
@@ -115,7 +136,7 @@ std::vector<DataGroup> select_data(const DataSelection& sel, const std::string& 
       grp.extra.push_back(c[rr.front()]);
     }
     // Abscissa order; equal abscissae (repeated measurements) only with duplicates = "average".
-    for (std::size_t k = 1; k < rr.size(); ++k) {
+    for (std::size_t k = 1; k < rr.size() && !sel.reverses; ++k) {
       const double a = x[rr[k - 1]], b = x[rr[k]];
       if (b > a || (b == a && sel.average_duplicates)) continue;
       std::ostringstream os;
@@ -136,11 +157,15 @@ std::vector<DataGroup> select_data(const DataSelection& sel, const std::string& 
       for (std::size_t k = 0; k < rr.size();) {
         std::size_t m = k + 1;
         double sum = y[rr[k]];
-        while (m < rr.size() && x[rr[m]] == x[rr[k]]) sum += y[rr[m++]];
+        while (m < rr.size() && x[rr[m]] == x[rr[k]] && sel.average_duplicates) sum += y[rr[m++]];
         c.x.push_back(x[rr[k]]);
         c.y.push_back(sum / static_cast<double>(m - k));
         c.lines.push_back(table.lines[rr[k]]);
         k = m;
+      }
+      if (sel.reverses) {
+        c.branch = abscissa_branches(c.x, sel.reversal_tolerance);
+        c.reversal_tolerance = sel.reversal_tolerance;
       }
       grp.curves.push_back(std::move(c));
     }

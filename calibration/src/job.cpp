@@ -52,6 +52,10 @@ std::vector<std::pair<std::string, std::string>> string_map(io::TomlTable& t, co
 FreeParameter read_free(io::TomlTable& t, const io::ParameterSet& start) {
   FreeParameter p;
   p.key = t.string("key");
+  p.experiment = t.string_or("experiment", "");  // a per-test parameter (only test.e0)
+  if (t.has("experiment") && p.key != "test.e0") t.fail("key", "a per-test parameter ('experiment') must be 'test.e0'");
+  if (!t.has("experiment") && p.key == "test.e0") t.fail("experiment", "'test.e0' needs the name of its experiment");
+  if (!p.experiment.empty()) p.key += "@" + p.experiment;
   std::string why;
   if (!parameter_addressable(start, p.key, why)) t.fail("key", why);
   p.lower = t.number("lower");
@@ -60,6 +64,10 @@ FreeParameter read_free(io::TomlTable& t, const io::ParameterSet& start) {
   p.start = t.optional_number("start");
   if (!(p.lower < p.upper)) t.fail("upper", "must exceed lower = " + std::to_string(p.lower));
   if (p.log && !(p.lower > 0)) t.fail("lower", "must be > 0 with log = true");
+  if (!p.experiment.empty() && !p.start) {  // from the experiment's test, once it is read (parse_job)
+    t.finish();
+    return p;
+  }
   const double s = p.start ? *p.start : get_parameter(start, p.key);
   if (!(s >= p.lower && s <= p.upper))
     t.fail(p.start ? "start" : "lower", "start value " + std::to_string(s) + (p.start ? "" : " (from the parameter set)") +
@@ -73,6 +81,7 @@ struct Parsed {
   DataSelection sel;
   std::string kind, name, model_abscissa;
   SteadyShearSpec ss;
+  bool predict = false;  // role = "predict": held out
 };
 
 // The part of an [[experiments]] entry shared by both kinds; leaves 'test' unread.
@@ -96,6 +105,10 @@ Parsed read_experiment_common(io::TomlTable& t, const std::string& job_file, std
     s.x_hi = r[1];
   }
   s.average_duplicates = t.choice("duplicates", {"error", "average"}, "error") == "average";
+  s.reverses = t.boolean_or("abscissa_reverses", false);
+  s.reversal_tolerance = t.number_or("reversal_tolerance", 0.0, io::Bounds::non_negative());
+  if (t.has("reversal_tolerance") && !s.reverses) t.fail("reversal_tolerance", "only with abscissa_reverses = true");
+  p.predict = t.choice("role", {"fit", "predict"}, "fit") == "predict";
   if (auto f = t.optional_table("filter")) {
     std::vector<std::pair<std::size_t, std::string>> keys;
     for (const auto& [k, node] : f->raw()) keys.emplace_back(node.source().begin.line, std::string(k.str()));
@@ -251,17 +264,39 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
         t.finish();
         continue;
       }
-      for (auto& e : make_element_experiments(p.name, p.sel, test, p.model_abscissa)) job.experiments.push_back(e);
+      for (auto& e : make_element_experiments(p.name, p.sel, test, p.model_abscissa))
+        (p.predict ? job.predictions : job.experiments).push_back(e);
     } else {
       if (synth) {
         t.finish();
         continue;
       }
-      for (auto& e : make_steady_shear_experiments(p.name, p.sel, p.ss)) job.experiments.push_back(e);
+      for (auto& e : make_steady_shear_experiments(p.name, p.sel, p.ss))
+        (p.predict ? job.predictions : job.experiments).push_back(e);
     }
     t.finish();
   }
   root.finish();
+  if (job.experiments.empty() && !synth) root.fail("experiments", "every experiment has role = \"predict\": nothing to fit");
+  // Per-test e0: a fitted element experiment; start from its test's e0 unless given.
+  for (auto& p : job.free) {
+    if (p.experiment.empty() || synth) continue;
+    auto named = [&](const auto& list) {
+      return std::find_if(list.begin(), list.end(), [&](const auto& e) { return e->base_name == p.experiment; });
+    };
+    if (named(job.predictions) != job.predictions.end())
+      throw io::InputError(io::where(path) + "free 'test.e0' of experiment '" + p.experiment +
+                           "': a held-out (role = \"predict\") test takes its e0 from its data, never from a fit");
+    const auto it = named(job.experiments);
+    if (it == job.experiments.end() || !std::isfinite((*it)->initial_void_ratio()))
+      throw io::InputError(io::where(path) + "free 'test.e0': no element experiment named '" + p.experiment + "'");
+    const double s = p.start.value_or((*it)->initial_void_ratio());
+    if (!(s >= p.lower && s <= p.upper))
+      throw io::InputError(io::where(path) + "free 'test.e0' of experiment '" + p.experiment + "': start " +
+                           std::to_string(s) + " lies outside [" + std::to_string(p.lower) + ", " +
+                           std::to_string(p.upper) + "]");
+    p.start = s;
+  }
   if (synth) {
     for (const auto& [file, text] : synthetic) io::write_file(file, text);
     return job;

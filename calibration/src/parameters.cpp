@@ -53,6 +53,10 @@ const std::map<std::string, Accessor>& accessors() {
 #undef GF_FRICTIONAL
 #undef GF_COLLISIONAL
 
+// Per-test initial void ratio of experiment NAME: "test.e0@NAME" (job: key = "test.e0", experiment = NAME).
+constexpr const char* kTestE0 = "test.e0@";
+bool is_test_e0(const std::string& key) { return key.rfind(kTestE0, 0) == 0 && key.size() > 8; }
+
 const Accessor& find(const io::ParameterSet& set, const std::string& key) {
   std::string why;
   if (!parameter_addressable(set, key, why)) throw io::InputError(why);
@@ -71,6 +75,7 @@ const std::vector<std::string>& settable_keys() {
 }
 
 bool parameter_addressable(const io::ParameterSet& set, const std::string& key, std::string& why) {
+  if (is_test_e0(key)) return true;
   if (!accessors().count(key)) {
     why = "'" + key + "' is not a parameter; allowed: ";
     for (size_t i = 0; i < settable_keys().size(); ++i) why += (i ? ", " : "") + settable_keys()[i];
@@ -84,8 +89,21 @@ bool parameter_addressable(const io::ParameterSet& set, const std::string& key, 
   return true;
 }
 
-double get_parameter(const io::ParameterSet& set, const std::string& key) { return find(set, key).get(set); }
+double get_parameter(const io::ParameterSet& set, const std::string& key) {
+  if (is_test_e0(key)) {
+    const auto it = set.test_e0.find(key.substr(8));
+    if (it == set.test_e0.end()) throw io::InputError("'" + key + "': no initial void ratio set for this experiment");
+    return it->second;
+  }
+  return find(set, key).get(set);
+}
 
-void set_parameter(io::ParameterSet& set, const std::string& key, double value) { find(set, key).set(set, value); }
+void set_parameter(io::ParameterSet& set, const std::string& key, double value) {
+  if (is_test_e0(key)) {
+    set.test_e0[key.substr(8)] = value;
+    return;
+  }
+  find(set, key).set(set, value);
+}
 
 }  // namespace granflow::calibration

@@ -54,7 +54,8 @@ struct CvodeCallbacks {
     self->pack_raw(d, yd);
     static const char* const kRateNames[kN] = {"dsigma_f_xx/dt", "dsigma_f_yy/dt", "dsigma_f_zz/dt", "dsigma_f_xy/dt",
                                                "dsigma_f_yz/dt", "dsigma_f_xz/dt", "deps_pd/dt",     "de/dt",
-                                               "dsqrt(T)/dt",    "dgamma/dt",      "deps_v/dt",      "deps_a/dt"};
+                                               "dsqrt(T)/dt",    "dgamma/dt",      "deps_v/dt",      "deps_a/dt",
+                                               "deps_xx/dt",     "deps_zz/dt"};
     for (int i = 0; i < kN; ++i)
       if (!std::isfinite(yd[i])) {
         self->note_rhs_issue(t, std::string("rate ") + kRateNames[i] + " = " + std::to_string(yd[i]) +
@@ -100,7 +101,8 @@ struct CvodeCallbacks {
       const double* y = N_VGetArrayPointer(yv);
       ElementState x = self->unpack(y);
       if (!(mean_pressure(x.sf) > fpar(self->p_).p_min)) return 0;
-      const M3 D = sym(velocity_gradient(self->test_.path, self->seg_.rate(t), 0.0));
+      const double r = self->seg_.rate(t);
+      const M3 D = sym(self->stress_control() ? self->grad_v(x, r, true) : velocity_gradient(self->test_.path, r, 0.0));
       // Consistent (closest-point in the energy norm) correction along C^e m, the first branch
       // of the library's detail::correct_drift, applied unconditionally: correct_drift only
       // acts when |f| > ftol = 1e-9, and that switch made CVODE's step collapse at rtol 1e-10.
@@ -165,6 +167,11 @@ void Driver<Model>::run_cvode(ElementState& x, const std::vector<Segment>& segs,
   }
   bool first = true;
   double last_progress = 0;
+  // Chattering: the mode switching back and forth without progress in time (no consistent
+  // mode, e.g. stress control where the law softens) is an error: 1000 switches within 1e-4 of the run.
+  double chatter_t = t;
+  long chatter_n = 0;
+  const double chatter_span = 1e-4 * std::max(t_end - t, 1e-300);
   for (std::size_t si = 0; si < segs.size(); ++si) {
     seg_ = segs[si];
     bool restart = true;
@@ -226,6 +233,16 @@ void Driver<Model>::run_cvode(ElementState& x, const std::vector<Segment>& segs,
       if (flag == CV_ROOT_RETURN) {
         ++out.stats.events;
         if (out.stats.events > 100000) throw std::runtime_error("element test: more than 100000 switch events (chattering) at t = " + std::to_string(t));
+        if (t - chatter_t > chatter_span) {
+          chatter_t = t;
+          chatter_n = 0;
+        } else if (++chatter_n > 1000) {
+          std::ostringstream os;
+          os.precision(10);
+          os << "element test '" << test_.name << "': the elastic/plastic mode switched 1000 times within 1e-4 of the run at t = "
+             << t << " s (no consistent mode: e.g. stress control of a softening state); state: " << state_text(x);
+          throw std::runtime_error(os.str());
+        }
         int found[2] = {0, 0};
         CVodeGetRootInfo(c.mem, found);
         if (found[0] != 0 && mean_pressure(x.sf) <= 1e-6 * sigma_ref_) {

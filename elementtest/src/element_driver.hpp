@@ -1,6 +1,6 @@
 // Element-test driver: the state of one material point as an ODE system in time.
 //
-//   y = [sigma_f (xx yy zz xy yz xz) / sigma_ref, eps_pd, e, s / s_ref, gamma, eps_v, eps_a]
+//   y = [sigma_f (xx yy zz xy yz xz) / sigma_ref, eps_pd, e, s / s_ref, gamma, eps_v, eps_a, eps_xx, eps_zz]
 //
 // dsigma_f/dt = frictional_rate (library, unchanged) + W sigma_f - sigma_f W   (Jaumann, MODEL 3.1)
 // deps_pd/dt  = plastic multiplier rate (library)
@@ -40,7 +40,7 @@ namespace granflow::elementtest::detail {
 using M3 = Mat3<double>;
 inline constexpr LodeShape kLode = LodeShape::SmoothMohrCoulomb;
 inline constexpr double kInf = std::numeric_limits<double>::infinity();
-inline constexpr int kN = 12;  // ODE size
+inline constexpr int kN = 14;  // ODE size
 
 // ---- parameter access per model ---------------------------------------------------------
 inline const FrictionalParams<double>& fpar(const FrictionalParams<double>& p) { return p; }
@@ -53,6 +53,7 @@ struct ElementState {
   M3 sf = M3::Zero();
   double eps_pd = 0, e = 0, s = 0;
   double gamma = 0, eps_v = 0, eps_a = 0;
+  double eps_xx = 0, eps_zz = 0;  // lateral strains, compression positive (radial on axial paths)
 };
 
 // Model-state conversions (the incremental update works on the library's own State types).
@@ -158,8 +159,28 @@ class Driver {
     d.gamma = is_shear(test_.path) ? L(0, 1) : D(0, 0) - D(1, 1);
     d.eps_v = -trace(D);
     d.eps_a = -D(1, 1);
+    d.eps_xx = -D(0, 0);
+    d.eps_zz = -D(2, 2);
     return d;
   }
+
+  // Stress control (a Data programme with control = "stress", oedometric): the axial strain rate
+  // is the unknown of the mixed control and the programme rate r is d sigma_a/dt.
+  bool stress_control() const {
+    return test_.programme.kind == ProgrammeKind::Data && test_.programme.control == Control::Stress;
+  }
+  bool mixed() const { return is_mixed(test_.path) || stress_control(); }
+  // Velocity gradient for control rate r and mixed-control unknown u.
+  M3 L_of(double r, double u) const {
+    if (stress_control()) {
+      M3 L = M3::Zero();
+      L(1, 1) = u;
+      return L;
+    }
+    return velocity_gradient(test_.path, r, u);
+  }
+  // Rate of the controlled stress the mixed control must produce (0: held constant).
+  double controlled_target_rate(double r) const { return stress_control() ? -r : 0.0; }
 
   // Mixed control (loading_paths.cpp).
   double controlled_stress(const ElementState& x) const;
@@ -198,6 +219,7 @@ class Driver {
     y[3] = x.sf(0, 1) / sigma_ref_; y[4] = x.sf(1, 2) / sigma_ref_; y[5] = x.sf(0, 2) / sigma_ref_;
     y[6] = x.eps_pd; y[7] = x.e; y[8] = x.s / s_ref_;
     y[9] = x.gamma; y[10] = x.eps_v; y[11] = x.eps_a;
+    y[12] = x.eps_xx; y[13] = x.eps_zz;
   }
   ElementState unpack(const double* y) const {
     ElementState x;
@@ -207,6 +229,7 @@ class Driver {
     x.sf(0, 2) = x.sf(2, 0) = y[5] * sigma_ref_;
     x.eps_pd = y[6]; x.e = y[7]; x.s = y[8] * s_ref_;
     x.gamma = y[9]; x.eps_v = y[10]; x.eps_a = y[11];
+    x.eps_xx = y[12]; x.eps_zz = y[13];
     return x;
   }
   void pack_raw(const ElementState& d, double* y) const {
@@ -214,6 +237,7 @@ class Driver {
     y[3] = d.sf(0, 1); y[4] = d.sf(1, 2); y[5] = d.sf(0, 2);
     y[6] = d.eps_pd; y[7] = d.e; y[8] = d.s;
     y[9] = d.gamma; y[10] = d.eps_v; y[11] = d.eps_a;
+    y[12] = d.eps_xx; y[13] = d.eps_zz;
   }
 
   // ---- runs ----------------------------------------------------------------------------------

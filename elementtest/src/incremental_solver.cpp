@@ -18,7 +18,7 @@ void Driver<Model>::run_incremental(ElementState& x, const std::vector<Segment>&
   std::size_t k = 0;
   auto st = to_state(x, static_cast<const Model*>(nullptr));
   M3 stress = M3::Zero();
-  M3 L_last = velocity_gradient(test_.path, segs.front().rate(t), 0.0);
+  M3 L_last = L_of(segs.front().rate(t), 0.0);
   seg_ = segs.front();
   while (k < out_times.size() && out_times[k] <= t) {
     record(out, t, seg_.rate(t), x, grad_v(x, seg_.rate(t), plastic_at(x, sym(L_last))));
@@ -26,7 +26,7 @@ void Driver<Model>::run_incremental(ElementState& x, const std::vector<Segment>&
   }
   double last_progress = 0;
   long steps = 0;
-  const double target = is_mixed(test_.path) ? controlled_stress(x) : 0.0;
+  double target = mixed() ? controlled_stress(x) : 0.0;  // moves with the programme under stress control
   for (const Segment& sg : segs) {
     seg_ = sg;
     while (sg.t1 - t > 1e-12 * dt) {
@@ -40,33 +40,41 @@ void Driver<Model>::run_incremental(ElementState& x, const std::vector<Segment>&
                                  " s of " + std::to_string(t_end) + " s (raise max_steps or dt)");
       auto try_step = [&](double u, decltype(st)& trial) {
         trial = st;
-        const M3 L = velocity_gradient(test_.path, r, u);
+        const M3 L = L_of(r, u);
         ++rhs_evals_;
         return std::make_pair(Model::update(p_, trial, L, h, stress), L);
       };
       decltype(st) trial = st;
       UpdateInfo inf;
       M3 L;
-      if (!is_mixed(test_.path)) {
+      if (!mixed()) {
         std::tie(inf, L) = try_step(0.0, trial);
       } else {
-        // secant on u so that the controlled stress after the step equals its initial value
+        // secant on u so that the controlled stress after the step equals its target (its
+        // initial value, or under stress control the programme's stress at t + h; the rate is
+        // constant within a Data segment, so h r is exact)
+        const double step_target = target + h * controlled_target_rate(r);
         auto resid = [&](double u) {
           auto pr = try_step(u, trial);
           ElementState xt = x;
           from_state(xt, trial);
           inf = pr.first;
           L = pr.second;
-          return inf.ok() ? controlled_stress(xt) - target : std::numeric_limits<double>::quiet_NaN();
+          return inf.ok() ? controlled_stress(xt) - step_target : std::numeric_limits<double>::quiet_NaN();
         };
-        double u0 = 0, g0 = resid(u0);
-        double u1 = -0.5 * r - 1e-12, g1 = resid(u1);
+        double u0 = 0, u1 = -0.5 * r - 1e-12;
+        if (stress_control()) {  // start from the tangent's strain rate (r is a stress rate here)
+          u0 = solve_mixed(x, r, plastic_at(x, sym(L_last)))(1, 1);
+          u1 = u0 * (1 + 1e-3) + (r > 0 ? -1e-12 : 1e-12);
+        }
+        double g0 = resid(u0), g1 = resid(u1);
         for (int it = 0; it < 40 && std::isfinite(g1) && std::fabs(g1) > 1e-10 * sigma_ref_; ++it) {
           if (g1 == g0) break;
           const double u2 = u1 - g1 * (u1 - u0) / (g1 - g0);
           u0 = u1; g0 = g1;
           u1 = u2; g1 = resid(u1);
         }
+        target = step_target;
       }
       if (!inf.ok()) {
         std::ostringstream os;
@@ -85,6 +93,8 @@ void Driver<Model>::run_incremental(ElementState& x, const std::vector<Segment>&
       x.gamma += h * (is_shear(test_.path) ? L(0, 1) : D(0, 0) - D(1, 1));
       x.eps_v += -h * trace(D);
       x.eps_a += -h * D(1, 1);
+      x.eps_xx += -h * D(0, 0);
+      x.eps_zz += -h * D(2, 2);
       t += h;
       L_last = L;
       check_state(x, t, "incremental update");
@@ -92,7 +102,7 @@ void Driver<Model>::run_incremental(ElementState& x, const std::vector<Segment>&
         // Outputs use D at the output time (the step itself used the midpoint rate, which
         // makes the temperature update second order for a varying rate).
         record(out, out_times[k], r, x,
-               is_mixed(test_.path) ? L : velocity_gradient(test_.path, sg.rate(t), 0.0));
+               mixed() ? L : L_of(sg.rate(t), 0.0));
         ++k;
       }
       if (progress && t / t_end - last_progress > 0.02) {

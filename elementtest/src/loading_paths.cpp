@@ -12,7 +12,9 @@ bool is_shear(LoadingPath p) {
 bool is_mixed(LoadingPath p) {
   return p == LoadingPath::SimpleShearConstantNormal || p == LoadingPath::DrainedTriaxial;
 }
-int controlled_index(LoadingPath p) { return p == LoadingPath::SimpleShearConstantNormal ? 1 : 0; }
+int controlled_index(LoadingPath p) {
+  return p == LoadingPath::SimpleShearConstantNormal || p == LoadingPath::Oedometric ? 1 : 0;
+}
 
 M3 velocity_gradient(LoadingPath p, double r, double u) {
   M3 L = M3::Zero();
@@ -64,9 +66,12 @@ double Driver<Model>::controlled_rate(const ElementState& x, const ElementState&
 // Solves the mixed control for u (secant on a piecewise-linear function); returns L.
 template <class Model>
 M3 Driver<Model>::solve_mixed(const ElementState& x, double r, bool plastic) const {
-  auto g = [&](double u) { return controlled_rate(x, rates_for(x, velocity_gradient(test_.path, r, u), plastic)); };
+  const double target = controlled_target_rate(r);
+  auto g = [&](double u) { return controlled_rate(x, rates_for(x, L_of(r, u), plastic)) - target; };
   double u0 = 0, g0 = g(u0);
-  double u1 = -0.5 * r - 1e-12, g1 = g(u1);
+  // second guess: half the control rate (drained triaxial), or a strain rate of the order of
+  // the stress rate over sigma_ref (stress control)
+  double u1 = stress_control() ? -1e-3 * r / sigma_ref_ - 1e-12 : -0.5 * r - 1e-12, g1 = g(u1);
   const double tol = 1e-12 * (std::fabs(g0) + std::fabs(g1)) + 1e-300;
   for (int it = 0; it < 40 && std::fabs(g1) > tol; ++it) {
     if (g1 == g0) break;
@@ -74,12 +79,12 @@ M3 Driver<Model>::solve_mixed(const ElementState& x, double r, bool plastic) con
     u0 = u1; g0 = g1;
     u1 = u2; g1 = g(u1);
   }
-  return velocity_gradient(test_.path, r, u1);
+  return L_of(r, u1);
 }
 
 template <class Model>
 M3 Driver<Model>::grad_v(const ElementState& x, double r, bool plastic) const {
-  return is_mixed(test_.path) ? solve_mixed(x, r, plastic) : velocity_gradient(test_.path, r, 0.0);
+  return mixed() ? solve_mixed(x, r, plastic) : velocity_gradient(test_.path, r, 0.0);
 }
 
 #define GRANFLOW_INSTANTIATE(Model)                                                                 \

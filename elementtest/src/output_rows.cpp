@@ -14,7 +14,8 @@ namespace granflow::elementtest {
 const std::vector<std::string>& result_column_names() {
   static const std::vector<std::string> names = {
       "time", "gamma", "shear_rate", "eps_v", "eps_a", "sigma_n_f", "sigma_n_c", "sigma_n", "tau_f", "tau_c", "tau",
-      "p_f",  "q_f",   "p_c",        "q_c",   "p",     "q",         "e",         "T",       "K_col", "eta_c", "eps_pd"};
+      "p_f",  "q_f",   "p_c",        "q_c",   "p",     "q",         "e",         "T",       "K_col", "eta_c", "eps_pd",
+      "sigma_xx", "sigma_zz", "eps_xx", "eps_zz", "q_axial"};
   return names;
 }
 
@@ -77,8 +78,11 @@ void Driver<Model>::record(ResultTable& out, double t, double r, const ElementSt
   const double row[] = {t,        x.gamma,        rate_gamma,          x.eps_v,     x.eps_a,       -sf(1, 1),
                         -sc(1, 1), -s(1, 1),      tau_of(sf),          tau_of(sc),  tau_of(s),     dg.p_f,
                         dg.q_f,   mean_pressure(sc), deviatoric_q(sc), mean_pressure(s), deviatoric_q(s), x.e,
-                        x.s * x.s, collisional_share(deviatoric_q(sc), deviatoric_q(sf)), eta, x.eps_pd};
-  for (int i = 0; i < 22; ++i)
+                        x.s * x.s, collisional_share(deviatoric_q(sc), deviatoric_q(sf)), eta, x.eps_pd,
+                        -s(0, 0),  -s(2, 2),      x.eps_xx,            x.eps_zz,    s(0, 0) - s(1, 1)};
+  constexpr int kColumns = sizeof(row) / sizeof(row[0]);
+  static_assert(kColumns == 27, "row and result_column_names() must match");
+  for (int i = 0; i < kColumns; ++i)
     if (!std::isfinite(row[i])) {
       std::ostringstream os;
       os.precision(10);
@@ -103,7 +107,7 @@ void Driver<Model>::record(ResultTable& out, double t, double r, const ElementSt
       throw std::runtime_error(os.str());
     }
   }
-  for (int i = 0; i < 22; ++i) out.columns[i].push_back(row[i]);
+  for (int i = 0; i < kColumns; ++i) out.columns[i].push_back(row[i]);
 }
 
 #define GRANFLOW_INSTANTIATE(Model) \

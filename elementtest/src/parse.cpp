@@ -42,7 +42,7 @@ ElementTest parse_element_test(io::TomlTable& t) {
 
   // Rate programme.
   RateProgramme& g = et.programme;
-  const std::string prog = t.choice("programme", {"constant", "acceleration", "table", "sweep"}, "constant");
+  const std::string prog = t.choice("programme", {"constant", "acceleration", "table", "sweep", "data"}, "constant");
   g.rate = t.number_or("rate", g.rate, Bounds::non_negative());
   const auto acc = t.optional_number("acceleration", Bounds::any());
   const auto hold = t.optional_number("hold", Bounds::non_negative());
@@ -59,6 +59,14 @@ ElementTest parse_element_test(io::TomlTable& t) {
   const auto rmax = t.optional_number("rate_max", Bounds::positive());
   const long per_decade = t.integer_or("rates_per_decade", 4, 1, 1000);
   const auto sweep_strain = t.optional_number("sweep_strain", Bounds::positive());
+  const bool has_direction = t.has("direction");
+  g.direction = t.choice("direction", {"compression", "extension"}, "compression") == "extension" ? -1.0 : 1.0;
+  const bool has_data_file = t.has("data_file");
+  const std::string data_file = t.string_or("data_file", "");
+  const bool has_control_column = t.has("control_column");
+  g.control_column = t.string_or("control_column", "");
+  const bool has_control = t.has("control");
+  g.control = t.choice("control", {"strain", "stress"}, "strain") == "stress" ? Control::Stress : Control::Strain;
 
   auto forbid = [&](bool present, const std::string& key, const std::string& why) {
     if (present) t.fail(key, "not used by programme '" + prog + "'" + why);
@@ -99,6 +107,18 @@ ElementTest parse_element_test(io::TomlTable& t) {
     g.duration = duration.value_or(g.table_time.back());
     if (g.duration > g.table_time.back())
       t.fail("duration", "extends past the last time of the rate table");
+  } else if (prog == "data") {
+    g.kind = ProgrammeKind::Data;
+    if (!(g.rate > 0)) t.fail("rate", "must be > 0 for programme 'data' (|d control/dt|)");
+    if (!has_control_column) t.fail("control_column", "required key is missing for programme 'data' (the column the test follows)");
+    forbid(duration.has_value(), "duration", " (the data rows set the end)");
+    forbid(has_direction, "direction", " (the sign of the data's changes sets it)");
+    if (has_data_file) {
+      std::filesystem::path p(data_file);
+      std::error_code ec;
+      if (p.is_relative() && !std::filesystem::exists(p, ec)) p = std::filesystem::path(t.file()).parent_path() / p;
+      load_programme_data(et, p.string());
+    }
   } else {
     g.kind = ProgrammeKind::Sweep;
     if (has_rates) {
@@ -130,6 +150,11 @@ ElementTest parse_element_test(io::TomlTable& t) {
     forbid(hold.has_value(), "hold", "");
   }
   if (prog != "table") forbid(has_file, "rate_file", "");
+  if (prog != "data") {
+    forbid(has_data_file, "data_file", "");
+    forbid(has_control_column, "control_column", "");
+    forbid(has_control, "control", "");
+  }
   if (prog != "sweep") {
     forbid(has_rates, "rates", "");
     forbid(rmin.has_value(), "rate_min", "");
@@ -138,6 +163,12 @@ ElementTest parse_element_test(io::TomlTable& t) {
   } else {
     forbid(duration.has_value(), "duration", " (each rate runs to sweep_strain)");
   }
+
+  const bool shear = et.path == LoadingPath::UndrainedSimpleShear || et.path == LoadingPath::SimpleShearConstantNormal;
+  if (has_direction && shear) t.fail("direction", "only for axial paths (triaxial, oedometric, isotropic)");
+  if (g.control == Control::Stress && et.path != LoadingPath::Oedometric)
+    t.fail("control", "\"stress\" (stress-controlled loading) needs path = \"oedometric\"");
+  if (prog == "data" && shear) t.fail("programme", "'data' drives the axial strain or stress: use an axial path");
 
   // Initial state.
   InitialState& in = et.initial;
@@ -173,10 +204,20 @@ ElementTest parse_element_test(io::TomlTable& t) {
   }
 
   // Output.
+  if (prog == "data" && t.has("outputs")) t.fail("outputs", "programme 'data' writes one row per data row");
+  if (prog == "data" && t.has("output_spacing")) t.fail("output_spacing", "programme 'data' writes one row per data row");
   et.output.points = static_cast<int>(t.integer_or("outputs", et.output.points, 2, 10000000));
   et.output.log_spacing = t.choice("output_spacing", {"linear", "log"}, "linear") == "log";
   t.finish();
   return et;
+}
+
+void load_programme_data(ElementTest& test, const std::string& file) {
+  RateProgramme& g = test.programme;
+  const io::CsvColumns c = io::read_csv_columns(file, {g.control_column});
+  g.data_file = file;
+  g.data_control = c.column(g.control_column);
+  if (g.data_control.size() < 2) throw io::InputError(io::where(file) + "programme 'data' needs at least 2 rows");
 }
 
 TestFile load_test_file(const std::string& path) {

@@ -2,6 +2,9 @@
 #include "rate_programme.hpp"
 
 #include <algorithm>
+#include <cmath>
+
+#include <granflow/io/input_error.hpp>
 
 namespace granflow::elementtest::detail {
 
@@ -26,8 +29,42 @@ std::vector<Segment> segments_of(const RateProgramme& g) {
         if (b >= g.duration) break;
       }
       break;
+    case ProgrammeKind::Data:
+      break;  // data_schedule
+  }
+  for (Segment& sg : s) {
+    sg.r0 *= g.direction;
+    sg.r1 *= g.direction;
   }
   return s;
+}
+
+DataSchedule data_schedule(const RateProgramme& g, double sigma_v0, const std::string& file) {
+  DataSchedule d;
+  const bool stress = g.control == Control::Stress;
+  auto target = [&](double c) { return stress ? std::max(c, sigma_v0) : c; };
+  if (g.data_control.empty())
+    throw io::InputError(io::where(file) + "programme 'data' has no data: give data_file (and control_column)");
+  d.start = stress ? sigma_v0 : g.data_control.front();
+  double t = 0, prev = d.start, seg_t0 = 0;
+  int dir = 0;
+  for (double c : g.data_control) {
+    const double v = target(c), dv = v - prev;
+    const int sign = dv > 0 ? 1 : dv < 0 ? -1 : 0;
+    if (sign != 0 && dir != 0 && sign != dir) {  // a reversal ends the run
+      d.segments.push_back({seg_t0, t, dir * g.rate, dir * g.rate});
+      seg_t0 = t;
+    }
+    if (sign != 0) dir = sign;
+    t += std::fabs(dv) / g.rate;
+    d.out_times.push_back(t);
+    prev = v;
+  }
+  if (!(t > seg_t0))
+    throw io::InputError(io::where(file) + "programme 'data': column '" + g.control_column + "' never changes" +
+                         (stress ? " above sigma_v0" : ""));
+  d.segments.push_back({seg_t0, t, dir * g.rate, dir * g.rate});
+  return d;
 }
 
 }  // namespace granflow::elementtest::detail

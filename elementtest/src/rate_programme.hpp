@@ -14,7 +14,18 @@ struct Segment {
 };
 
 // The segments of a Constant, Acceleration or Table programme (a Sweep runs one constant
-// segment per rate, built by the caller).
+// segment per rate, built by the caller), with the sign of g.direction.
 std::vector<Segment> segments_of(const RateProgramme& g);
+
+// A Data programme as segments of constant signed rate (one per monotonic run of the control
+// column) and one output time per data row: time advances by |change| / rate. Stress control
+// starts at sigma_v0 and holds it while the column is below it; strain control starts at the
+// first row's value (`start`, the initial eps_a).
+struct DataSchedule {
+  std::vector<Segment> segments;
+  std::vector<double> out_times;
+  double start = 0;
+};
+DataSchedule data_schedule(const RateProgramme& g, double sigma_v0, const std::string& file);
 
 }  // namespace granflow::elementtest::detail

@@ -25,7 +25,13 @@ ResultTable run_model(const ElementTest& test, const typename Model::Params& p, 
   out.columns.assign(out.names.size(), {});
   const double c0 = cpu_now();
   const RateProgramme& g = test.programme;
-  if (g.kind != ProgrammeKind::Sweep) {
+  if (g.kind == ProgrammeKind::Data) {
+    const DataSchedule d = data_schedule(g, test.initial.sigma_v0, test.file.empty() ? g.data_file : test.file);
+    Driver<Model> drv(test, p, set);
+    ElementState x = drv.initial_state();
+    if (g.control == Control::Strain) x.eps_a = d.start;  // eps_a follows the column itself
+    drv.run(x, d.segments, d.out_times, out, progress);
+  } else if (g.kind != ProgrammeKind::Sweep) {
     const std::vector<Segment> segs = segments_of(g);
     if (segs.empty()) throw io::InputError(io::where(test.file) + "the rate programme has no time span");
     Driver<Model> drv(test, p, set);
@@ -41,7 +47,7 @@ ResultTable run_model(const ElementTest& test, const typename Model::Params& p, 
       one.columns.assign(out.names.size(), {});
       Driver<Model> drv(test, p, set);
       ElementState x = drv.initial_state();
-      const Segment s{0.0, g.sweep_strain / r, r, r};
+      const Segment s{0.0, g.sweep_strain / r, g.direction * r, g.direction * r};
       drv.run(x, {s}, {s.t1}, one, {});
       for (std::size_t c = 0; c < out.columns.size(); ++c) out.columns[c].push_back(one.columns[c].back());
       out.stats.rhs_evals += one.stats.rhs_evals;
@@ -67,6 +73,10 @@ void check_test(const ElementTest& t) {
   if (t.solver.kind == SolverKind::Incremental && !(t.solver.dt > 0)) throw io::InputError(w + "dt must be > 0");
   if (!(t.initial.sigma_v0 > 0)) throw io::InputError(w + "sigma_v0 must be > 0");
   if (g.rate < 0) throw io::InputError(w + "rate must be >= 0");
+  if (g.kind == ProgrammeKind::Data && !(g.rate > 0)) throw io::InputError(w + "programme 'data' needs rate > 0");
+  if (g.direction != 1.0 && g.direction != -1.0) throw io::InputError(w + "direction must be +1 or -1");
+  if (g.kind == ProgrammeKind::Data && g.control == Control::Stress && t.path != LoadingPath::Oedometric)
+    throw io::InputError(w + "stress control needs the oedometric path");
 }
 
 }  // namespace

@@ -73,3 +73,41 @@ TEST(ElementInput, RunErrorsAreInputErrors) {
   gt::ResultTable r;
   EXPECT_THROW(r.column("nope"), granflow::io::InputError);
 }
+
+TEST(ElementInput, BadDataProgrammesAreErrors) {
+  write("prog.csv", "sigma_a,eps_a\n0,0\n1000,0.001\n");
+  write("flat.csv", "sigma_a\n5\n5\n");
+  const std::string head = "[test]\nprogramme = \"data\"\n";
+  EXPECT_NE(error_of(write("d1.toml", head + "path = \"oedometric\"\ndata_file = \"prog.csv\"\n")).find("test.control_column"),
+            std::string::npos);
+  EXPECT_NE(error_of(write("d2.toml", head + "path = \"drained_triaxial\"\ndata_file = \"prog.csv\"\ncontrol_column = "
+                                              "\"sigma_a\"\ncontrol = \"stress\"\n"))
+                .find("test.control"),
+            std::string::npos);
+  EXPECT_NE(error_of(write("d3.toml", "[test]\npath = \"undrained_simple_shear\"\ndirection = \"extension\"\n")).find("test.direction"),
+            std::string::npos);
+  EXPECT_NE(error_of(write("d4.toml", head + "path = \"oedometric\"\ndata_file = \"prog.csv\"\ncontrol_column = \"eps_a\"\n"
+                                              "outputs = 10\n"))
+                .find("test.outputs"),
+            std::string::npos);
+  const std::string e5 = error_of(write("d5.toml", head + "path = \"oedometric\"\ndata_file = \"prog.csv\"\ncontrol_column = \"eps_x\"\n"));
+  EXPECT_NE(e5.find("prog.csv"), std::string::npos) << e5;
+  EXPECT_NE(e5.find("eps_x"), std::string::npos) << e5;
+  EXPECT_NE(error_of(write("d6.toml", head + "path = \"undrained_triaxial\"\ndata_file = \"prog.csv\"\ncontrol_column = "
+                                              "\"eps_a\"\ndirection = \"extension\"\n"))
+                .find("test.direction"),
+            std::string::npos);
+  // stress held at sigma_v0 = 1e4 while the column stays below it: nothing to run
+  const gt::TestFile tf = gt::load_test_file(write(
+      "d7.toml", head + "path = \"oedometric\"\ndata_file = \"flat.csv\"\ncontrol_column = \"sigma_a\"\ncontrol = \"stress\"\n"
+                        "sigma_v0 = 1e4\n"));
+  try {
+    gt::run_element_test(tf.test, pset("frictional_element"));
+    ADD_FAILURE() << "no error";
+  } catch (const granflow::io::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("never changes"), std::string::npos) << e.what();
+  }
+  gt::ElementTest t = tf.test;  // a data programme with no data (the API without a data file)
+  t.programme.data_control.clear();
+  EXPECT_THROW(gt::run_element_test(t, pset("frictional_element")), granflow::io::InputError);
+}

@@ -22,7 +22,11 @@ struct Curve {
   std::string data_column;   // measured column
   std::string model_output;  // model quantity it is compared with
   std::string abscissa;      // abscissa column (for labels)
-  std::vector<double> x, y;  // data, x strictly increasing
+  std::vector<double> x, y;  // data, x strictly increasing (unless branch is set)
+  // Abscissa that reverses (abscissa_reverses): the monotonic run each point lies on, counted
+  // from 0; the model's runs are found with the same tolerance and matched in order. Empty: x increases.
+  std::vector<int> branch;
+  double reversal_tolerance = 0;
   std::vector<long> lines;   // file line of each point (first of averaged duplicates)
   double weight = 1.0;
   // Standard deviation of the data in data units for the Gaussian likelihood of the ensemble
@@ -58,6 +62,12 @@ class Experiment {
   }
   // Parameters the experiment takes from its data instead of the set (written into the fitted file).
   virtual std::string data_parameters() const { return ""; }
+  // The [[experiments]] name before any split suffix (per-test free parameters address it).
+  std::string base_name;
+  // Initial void ratio of an element test (the start of a per-test free e0); NaN for other kinds.
+  virtual double initial_void_ratio() const { return std::numeric_limits<double>::quiet_NaN(); }
+  // The element test's loading path as in a test file ("drained_triaxial", ...); "" for other kinds.
+  virtual std::string loading_path() const { return ""; }
   // Highest abscissa value (for the steady-shear V_sd check).
   double x_max() const;
 };
@@ -72,6 +82,8 @@ struct DataSelection {
   std::vector<std::string> extra_columns;  // columns the experiment reads per group (constant within it)
   double x_lo = -1e300, x_hi = 1e300;
   bool average_duplicates = false;
+  bool reverses = false;            // abscissa_reverses: monotonic runs (Curve::branch) instead of increasing
+  double reversal_tolerance = 0;    // a move back by more than this starts a new run
   std::vector<std::pair<std::string, std::string>> targets;  // data column -> model output
   std::vector<double> target_weights;
   std::vector<double> target_sd;  // per target: Curve::sd (NaN: the job's default)
@@ -86,6 +98,10 @@ struct DataGroup {
 };
 
 std::vector<DataGroup> select_data(const DataSelection& sel, const std::string& experiment_name);
+
+// Monotonic runs of x: the run index of each point. A run ends at its extreme once x has moved
+// back from it by more than `tolerance`; smaller moves back stay in the run.
+std::vector<int> abscissa_branches(const std::vector<double>& x, double tolerance);
 
 // Steady simple shear (closed forms of MODEL.md 5.3): outputs p, tau, T, mu.
 struct SteadyShearSpec {

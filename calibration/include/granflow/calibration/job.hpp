@@ -23,6 +23,7 @@ struct FreeParameter {
   double lower = 0, upper = 0;
   bool log = false;                    // search in log(value): for parameters spanning decades
   std::optional<double> start;         // default: the value in the starting set
+  std::string experiment;              // key "test.e0@NAME": the initial void ratio of experiment NAME
 };
 
 enum class MisfitScale { Linear, Log };
@@ -72,6 +73,8 @@ struct CalibrationJob {
   io::ParameterSet start;   // parameter set the fit starts from (and whose other values it keeps)
   std::vector<FreeParameter> free;
   std::vector<std::shared_ptr<const Experiment>> experiments;
+  // Held out (role = "predict"): run with the fitted set and reported, never fitted.
+  std::vector<std::shared_ptr<const Experiment>> predictions;
   MisfitSpec misfit;
   AlgorithmSpec algorithm;
   EnsembleSpec ensemble;

@@ -36,8 +36,13 @@ enum class ProgrammeKind {
   Constant,      // rate(t) = rate
   Acceleration,  // rate(t) = rate for t < hold, then rate + acceleration (t - hold)
   Table,         // piecewise-linear rate(t) from a CSV file (columns time, rate)
-  Sweep          // one constant-rate run per rate, each to sweep_strain; one output row per rate
+  Sweep,         // one constant-rate run per rate, each to sweep_strain; one output row per rate
+  Data           // the control column of a data file, row by row (reversals allowed); one output row per data row
 };
+
+// What a Data programme's column prescribes: the axial strain (compression positive) or the axial
+// stress [Pa] (compression positive; oedometric path only: stress-controlled oedometer).
+enum class Control { Strain, Stress };
 
 enum class SolverKind { Cvode, Incremental };
 
@@ -54,6 +59,12 @@ struct RateProgramme {
   std::string table_file;                      // where the table came from (messages)
   std::vector<double> sweep_rates;             // (Sweep) [1/s], each > 0
   double sweep_strain = 5.0;  // (Sweep) strain (gamma or axial) each rate is run to
+  double direction = 1.0;     // axial paths: +1 compression, -1 extension (not Data: its sign is the data's)
+  // (Data) the control column, one value per data row; time advances by |change| / rate, so
+  // `rate` is |d control / dt| [1/s or Pa/s] and the solvers restart only where it reverses.
+  Control control = Control::Strain;
+  std::vector<double> data_control;
+  std::string data_file, control_column;
 };
 
 struct InitialState {
@@ -92,18 +103,24 @@ struct ElementTest {
 //   path = "undrained_simple_shear" | "simple_shear_constant_normal" | "drained_triaxial" |
 //          "undrained_triaxial" | "oedometric" | "isotropic"
 //   model = "auto" | "frictional" | "collisional" | "phase_transition"
-//   programme = "constant" | "acceleration" | "table" | "sweep"
+//   programme = "constant" | "acceleration" | "table" | "sweep" | "data"
 //   rate, acceleration, hold, duration, rate_file (CSV with columns time,rate; relative paths
 //   are taken from the test file's folder), rates (array) or rate_min/rate_max/rates_per_decade,
-//   sweep_strain
+//   sweep_strain, direction = "compression" | "extension" (axial paths)
+//   data: data_file (CSV; in a calibration job the experiment's data by default), control_column,
+//   control = "strain" | "stress" (stress: oedometric path; the stress is held at sigma_v0 while
+//   the column is below it)
 //   e0, sigma_v0, k0 (number) or initial_stress = "isotropic" | "k0" (k0 = 1 - sin phi_c), T0
 //   solver = "cvode" | "incremental", rtol, atol, dt, max_steps
 //   outputs (rows), output_spacing = "linear" | "log"
 ElementTest parse_element_test(io::TomlTable& test_table);
 
+// Reads a Data programme's control column from `file` into test.programme (data_file, data_control).
+void load_programme_data(ElementTest& test, const std::string& file);
+
 // Column names (also the CSV header), in this order:
 //   time, gamma, shear_rate, eps_v, eps_a, sigma_n_f, sigma_n_c, sigma_n, tau_f, tau_c, tau,
-//   p_f, q_f, p_c, q_c, p, q, e, T, K_col, eta_c, eps_pd
+//   p_f, q_f, p_c, q_c, p, q, e, T, K_col, eta_c, eps_pd, sigma_xx, sigma_zz, eps_xx, eps_zz, q_axial
 // See docs/elementtest.md for their meaning and units.
 const std::vector<std::string>& result_column_names();
 

@@ -2,6 +2,7 @@
 // MODEL.md 7, optional initial state, optional numerics. Loaded with full validation.
 #pragma once
 
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,6 +21,9 @@ struct ParameterSet {
   std::vector<double> e0;  // initial void ratios named by the set (may be empty)
   std::optional<double> T0;
   std::string file;        // where it was loaded from
+  // Initial void ratios of named experiments set by a calibration (a per-test free e0); not
+  // part of the file format.
+  std::map<std::string, double> test_e0;
 
   bool has_frictional() const { return frictional.has_value(); }
   bool has_collisional() const { return collisional.has_value(); }
