@@ -50,6 +50,9 @@ struct Polyline {
 
 std::string stage_name(const Scene& sc, int i) { return sc.stages[i].name.empty() ? "stage" + std::to_string(i) : sc.stages[i].name; }
 
+
+}  // namespace
+
 // Steps to queue in a span. Fixed step: exactly those up to the end of the span (the host
 // repeats the span's arithmetic). Adaptive: an estimate from the current step, 2 % long; steps
 // queued past the end do nothing, and a short span is followed by another.
@@ -68,8 +71,6 @@ long span_length(const Span& s, long cap) {
   }
   return n;
 }
-
-}  // namespace
 
 Measures measure(const Frame& fr, const SceneSetup& su, const std::vector<double>& mass) {
   const Scene& sc = su.scene;

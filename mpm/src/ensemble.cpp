@@ -151,17 +151,7 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
       span.dt_max = sc.dt;
       span.t_land = next_event;
       span.t_until = t_until;
-      span.max_steps = sc.adaptive ? std::max(1L, opt.max_span) : 0;
-      if (!sc.adaptive) {  // exactly the steps up to the end of the span (run_loop's span_length)
-        double tt = t;
-        long n = 0;
-        while (n < std::max(1L, opt.max_span)) {
-          tt += span_step_size(tt, dt, span.t_land);
-          ++n;
-          if (span_reached(tt, span.t_until)) break;
-        }
-        span.max_steps = n;
-      }
+      span.max_steps = span_length(span, std::max(1L, opt.max_span));
       const SpanResult r = runner.advance_span(span);
       step += r.steps;
       if (!r.ok) {

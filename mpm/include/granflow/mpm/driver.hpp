@@ -73,6 +73,9 @@ struct RunSummary {
 };
 
 RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt);
+// Steps to queue in a span (at most cap): fixed step, exactly those up to its end; adaptive, an
+// estimate (steps queued past the end do nothing).
+long span_length(const Span& s, long cap);
 
 // The CSVs a run writes: dir/runout.csv and dir/tracked.csv (docs/mpm.md lists the columns),
 // and a free surface (x, surface_y).
