@@ -19,11 +19,12 @@
 #   perf           granflow bench mpm of the CUDA options on the 1 mm column and the 5 mm flume,
 #                  the precisions, the split G2P; the full 1 mm column and its first 0.35 s timed
 #   profile        Nsight Compute of the 1 mm column's kernels (needs ncu)
+#   profile-ensemble  Nsight Compute of the 64-member 5 mm column's step kernels in the collapse
 #   sanitize       compute-sanitizer memcheck and racecheck of the CI scenes and CUDA option variants
 #   3d             the 3D slab (8e6 points) benchmark: precisions and CUDA options
 #   ensemble       granflow ensemble against sequential single runs of the same members: 64
 #                  members of the 5 mm column (fp32, fp64), 16 of the 1 mm column (fp32)
-#   study          the flume parameter study (mpm/scenes/ensembles/flume_study.toml, 16 members,
+#   study          the flume parameter study (mpm/scenes/ensembles/flume_study.toml, 64 members,
 #                  lifting gate, 0.8 s of flow, CFL step), summary in study_summary.csv
 #   ensemble-batched  the batched runs of the ensemble part only, the 5 mm one also sampled
 #                  sparsely (ENS_1MM=0: without the 1 mm ensemble)
@@ -401,6 +402,19 @@ part_profile() {
     "$R/ncu_column.txt" | head -40
 }
 
+part_profile_ensemble() {
+  local ncu
+  ncu=$(command -v ncu || ls /usr/local/cuda*/bin/ncu /opt/nvidia/nsight-compute/*/ncu 2>/dev/null | head -1)
+  [ -n "$ncu" ] || { echo "ncu not found: profile skipped" | tee -a "$log"; return 0; }
+  x 300 "$R/ncu_ensemble.txt" "$ncu" --clock-control none -k regex:"p2g_kernel|grid_kernel|g2p" --launch-skip 30000 \
+    --launch-count 4 --section SpeedOfLight --section LaunchStats --section Occupancy --section MemoryWorkloadAnalysis \
+    "$G" ensemble "$COL" "$SC/ensembles/column_bench_64.toml" --set grid.h=0.005 --set time.dt=5e-5 --precision fp32 \
+    --backend "$BACKEND" --out "$R/ens" --force --no-png --quiet
+  cp "$R/ncu_ensemble.txt" "$RES/ncu_ensemble.txt"
+  grep -E "^  [a-z_]+.*kernel|Duration|Compute \(SM\) Throughput|Memory Throughput|Registers Per|Achieved Occupancy|Theoretical Occupancy|Local" \
+    "$R/ncu_ensemble.txt" | head -60
+}
+
 part_sanitize() {
   local cs
   cs=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer 2>/dev/null | head -1)
@@ -446,8 +460,8 @@ main() {
   local part fn f t0 status=0
   for part in "$@"; do
     case $part in
-      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate) ;;
-      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate)" >&2
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble)" >&2
          return 2 ;;
     esac
   done

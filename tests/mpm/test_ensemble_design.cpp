@@ -426,7 +426,7 @@ TEST(EnsembleDesign, ExampleDesignsApplyToTheirScenes) {
 
   const EnsembleDesign fl = load_design(kRepo + "mpm/scenes/ensembles/flume_study.toml");
   EXPECT_EQ(fl.method, "sobol");
-  ASSERT_EQ(fl.members, 16);
+  ASSERT_EQ(fl.members, 64);
   EXPECT_EQ(fl.vary[3].key, "stage[1].gate.lift_speed");
   EXPECT_TRUE(fl.vary[3].log_scale);
   // the shipped flume has no gate in its flow stage: the design's comment gives these two
