@@ -29,6 +29,7 @@
 #   ensemble-batched  the batched runs of the ensemble part only, the 5 mm one also sampled
 #                  sparsely (ENS_1MM=0: without the 1 mm ensemble)
 #   ensemble-diag  the 64-member column sampled sparsely; a 1 mm member alone, twice
+#   ensemble-options  the 64-member 5 mm column under the CUDA options (split G2P, sort, blocks)
 #   calibrate      data/calibration/bui_column.toml (5 mm), then the 1 mm column with the fitted set
 #
 # Results go to $GPU_OUT, else $OUT, else out/gpu: PART.log (each command, printed before it
@@ -349,6 +350,22 @@ part_study() {
   tar czf "$RES/study_profiles.tgz" -C "$R/flume_study" $(cd "$R/flume_study" && ls -d member_*/profile_final.csv member_*/runout.csv) 2>/dev/null
 }
 
+# The 64-member 5 mm column (fp32; fp64 with the split off) under the CUDA fast-path options.
+part_ensemble_options() {
+  local o t c="--set grid.h=0.005 --set time.dt=5e-5"
+  for o in "" "--g2p-split off" "--g2p-split on --g2p-regcap on" "--sort 8" "--sort 0 --p2g atomic" "--g2p-block 64" \
+           "--graph-steps 8"; do
+    # shellcheck disable=SC2086
+    t=${o:-default}
+    ens "col5_64_fp32${t// /}" 120 "$COL" "$SC/ensembles/column_bench_64.toml" $c --precision fp32 $o
+  done
+  for o in "" "--g2p-split off"; do
+    # shellcheck disable=SC2086
+    t=${o:-default}
+    ens "col5_64_fp64${t// /}" 120 "$COL" "$SC/ensembles/column_bench_64.toml" $c --precision fp64 $o
+  done
+}
+
 # What the ensemble's time per step is made of: the 64-member 5 mm column sampled every 50 ms
 # instead of 1 ms; the 1 mm member 0 of the 16-member ensemble alone, twice (run-to-run spread).
 part_ensemble_diag() {
@@ -460,8 +477,8 @@ main() {
   local part fn f t0 status=0
   for part in "$@"; do
     case $part in
-      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble) ;;
-      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble)" >&2
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options)" >&2
          return 2 ;;
     esac
   done
