@@ -9,7 +9,6 @@ _share = _os.path.normpath(_os.path.join(_os.path.dirname(__file__), "..", "..",
 if "GRANFLOW_DATA_DIR" not in _os.environ and _os.path.isdir(_share):
     _os.environ["GRANFLOW_DATA_DIR"] = _share
 
-from ._granflow import *  # noqa: F401,F403
 from ._granflow import (FLAGS, FLAG_ERROR_MASK, InputError, OutputError, ParameterSet, calibrate,
                         cuda_available, data_directory, element, element_columns, load_params, mpm,
                         parse_params, update)

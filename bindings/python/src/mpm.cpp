@@ -1,6 +1,10 @@
 // granflow.mpm: an MPM scene run as `granflow mpm SCENE` runs it (load_scene with the
 // overrides, make_setup_for_file, the CPU twin or CUDA runner, mpm::run), with the series,
 // the tracked points, the final particles and the free surface returned as arrays instead of files.
+#include <signal.h>
+
+#include <csignal>
+
 #include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/scene_file.hpp>
 
@@ -10,6 +14,27 @@
 namespace granflow::python {
 
 namespace {
+
+// Ctrl-C during a run: the time loop polls this after every step and stops (as the CLI's
+// SignalGuard); Python's handler is put back afterwards and KeyboardInterrupt raised.
+volatile std::sig_atomic_t g_interrupt = 0;
+void on_sigint(int sig) { g_interrupt = sig; }
+
+class SigintGuard {
+ public:
+  SigintGuard() {
+    g_interrupt = 0;
+    struct sigaction sa {};
+    sa.sa_handler = on_sigint;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;
+    sigaction(SIGINT, &sa, &old_);
+  }
+  ~SigintGuard() { sigaction(SIGINT, &old_, nullptr); }
+
+ private:
+  struct sigaction old_ {};
+};
 
 // Component-major (x[d * n + i]) -> (n, dim).
 py::array_t<double> points(const std::vector<double>& v, long n, int dim) {
@@ -42,10 +67,16 @@ py::dict mpm_run(py::handle scene, py::handle params, py::handle overrides, cons
     mpm::RunOptions ro;  // no out_dir: nothing is written
     ro.progress = progress;
     ro.stop_after = stop_after;
+    ro.interrupt = &g_interrupt;
+    SigintGuard guard;
     s = mpm::run(su, *runner, ro);
     runner->frame(fr, true);
     surface = mpm::free_surface(fr, su);
     device = runner->device();
+  }
+  if (s.interrupted) {
+    PyErr_SetNone(PyExc_KeyboardInterrupt);
+    throw py::error_already_set();
   }
   if (!s.ok) throw std::runtime_error("run stopped: " + s.message);
 
@@ -120,7 +151,8 @@ stop_after  > 0: stop at this simulated time [s]
 Returns a dict: series (runout.csv's columns), tracked (tracked.csv's, name as strings),
 particles (final state: x and v (n, dim), p, q, eps_pd, T, eta_c, K_col, e, sxx, syy, sxy, m),
 surface (profile_final.csv's x, surface_y), final (run-out, height, ...), steps, t_end,
-wall_s, device. A failed run raises RuntimeError("run stopped: ...") as the CLI does.)");
+wall_s, device. A failed run raises RuntimeError("run stopped: ...") as the CLI does; Ctrl-C
+stops the run after the current step (KeyboardInterrupt).)");
   m.def("cuda_available", [] { return mpm::cuda_backend_available() && mpm::cuda_device_count() > 0; },
         "True where the CUDA backend is built and a device is visible");
 }

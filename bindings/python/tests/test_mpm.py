@@ -76,3 +76,17 @@ def test_cuda_backend():
             granflow.mpm(SCENE, overrides=SETS, stop_after=STOP, backend="cuda")
     with pytest.raises(granflow.InputError, match="backend 'gpu'"):
         granflow.mpm(SCENE, backend="gpu")
+
+
+def test_ctrl_c_stops_a_run_and_restores_pythons_handler():
+    import os
+    import signal
+    import threading
+    import time
+    timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    t0 = time.time()
+    with pytest.raises(KeyboardInterrupt):
+        granflow.mpm(SCENE)  # about a minute to the end
+    assert time.time() - t0 < 10
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
