@@ -3,6 +3,7 @@
 // summary CSV and PNGs of the final profiles and of each summary quantity against each
 // varied value (scripts/plot_ensemble.py).
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <exception>
 #include <cstdio>
@@ -20,6 +21,7 @@
 #include <granflow/mpm/ensemble.hpp>
 #include <granflow/mpm/ensemble_design.hpp>
 #include <granflow/mpm/memory.hpp>
+#include <granflow/mpm/ranks.hpp>
 
 #include "commands.hpp"
 #include "mpm_common.hpp"
@@ -136,7 +138,164 @@ std::string summary_csv(const mpm::EnsembleDesign& d, const mpm::Scene& sc, cons
   return os.str();
 }
 
+// What one process writes and prints once every member has run: summary.csv, design.toml, the
+// report on stdout, the PNGs, the manifest.
+void finish(const EnsembleCmd& o, const mpm::EnsembleDesign& design, const mpm::Scene& sc,
+            const mpm::EnsembleSummary& s, const std::string& out, io::RunFolder& folder, long particles,
+            long nodes, const std::string& device) {
+  io::write_file(out + "/summary.csv", summary_csv(design, sc, s));
+  {
+    std::ifstream in(o.design, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    io::write_file(out + "/design.toml", text.str());
+  }
+  long failed = 0;
+  for (const auto& m : s.members) failed += m.ok ? 0 : 1;
+  const double updates = double(particles) * double(s.steps);
+  std::printf("scene: %s\nmembers: %ld (%ld failed)\nparticles: %ld\nsteps: %ld\nsimulated: %.6g s\nwall: %.3f s\n",
+              sc.name.c_str(), design.members, failed, particles, s.steps, s.t_end, s.wall_s);
+  std::printf("device: %s\ngrid nodes: %ld\n", device.c_str(), nodes);
+  std::printf("particle-updates/s: %.4g\nwall per step: %.2f us\n", s.wall_s > 0 ? updates / s.wall_s : 0.0,
+              s.steps > 0 ? 1e6 * s.wall_s / s.steps : 0.0);
+  if (s.times.span_steps > 0)  // CUDA: kernel time of the spans (first device), the rest is the host's
+    std::printf("device time of spans: %.3f s (%.2f us per step)\n", s.times.device,
+                1e6 * s.times.device / s.times.span_steps);
+  for (size_t k = 0; k < s.members.size(); ++k)
+    if (!s.members[k].ok) std::printf("member %zu failed: %s\n", k, s.members[k].message.c_str());
+  std::printf("output: %s (summary.csv, member_NNNN/{runout,tracked,profile_final}.csv)\n", out.c_str());
+  if (s.interrupted) {
+    std::fprintf(stderr, "granflow: interrupted at t = %.6g s; wrote the series so far\n", s.t_end);
+    throw ExitStatus{128 + s.interrupted};
+  }
+  if (!o.no_png) {
+    const std::string script = locate_script("plot_ensemble.py");
+    if (script.empty()) {
+      std::fprintf(stderr, "PNGs skipped: scripts/plot_ensemble.py not found\n");
+    } else {
+      const std::string py = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+      const std::string cmd = py + " " + shell_word(script) + " " + shell_word(out);
+      if (std::system(cmd.c_str()) != 0) {
+        std::error_code ec;
+        fs::remove_all(out + "/png", ec);
+        std::fprintf(stderr, "PNGs skipped: '%s' failed\n", cmd.c_str());
+      }
+    }
+  }
+  folder.complete(failed == 0 ? "complete" : "complete; " + std::to_string(failed) + " members failed (summary.csv)");
+}
+
+// Several MPI ranks (docs/mpm_ensembles.md, "Several processes (MPI)"): rank r runs the
+// contiguous members rank_members gives it as one ensemble on its host's GPU number local rank
+// (or the CPU twin) and writes their member folders; rank 0 owns the output folder, gathers
+// every member's summary and writes what one process writes.
+void run_ensemble_ranks(const EnsembleCmd& o) {
+  const mpm::Ranks& rk = mpm::ranks();
+  if (o.devices > 1)
+    throw io::InputError("--devices " + std::to_string(o.devices) +
+                         ": under mpirun/srun each rank drives one GPU (the one of its local rank); start one rank "
+                         "per GPU instead");
+  const mpm::EnsembleDesign design = mpm::load_design(o.design);
+  check_vary_keys(o, design);
+  const auto [first, last] = mpm::rank_members(design.members, rk.rank(), rk.size());
+  std::string out = o.out;
+  if (out.empty()) out = "ensemble_out/" + fs::path(o.design).stem().string();
+  mpm::SceneSetup su;  // this rank's members as one ensemble (none where members < ranks)
+  std::vector<mpm::SceneSetup> ms;
+  if (last > first) {
+    ms.push_back(member_setup(o, design, first));
+    mpm::EnsembleDesign mine = design;
+    mine.members = last - first;
+    if (o.backend == "cuda") mpm::cuda_select_device(rk.local_rank() % std::max(1, mpm::cuda_device_count()));
+    check_memory(o, mine, ms[0], 1);
+    for (long k = first + 1; k < last; ++k) ms.push_back(member_setup(o, design, k));
+    try {
+      su = mpm::make_ensemble_setup(ms);
+    } catch (const mpm::SceneError& e) {
+      throw io::InputError(io::where(o.design) + e.what());
+    }
+  } else {
+    su = member_setup(o, design, 0);  // the scene, for rank 0's summary
+  }
+  // The folder exists and is locked before any rank writes into it.
+  std::unique_ptr<io::RunFolder> folder;
+  if (rk.rank() == 0)
+    folder = std::make_unique<io::RunFolder>(out, o.force ? io::FolderUse::Force : io::FolderUse::Fresh,
+                                             mpm::kCheckpointFile);
+  rk.barrier();
+  mpm::EnsembleSummary part;
+  std::string device = "-";
+  long particles = 0, nodes = 0;
+  {
+    SignalGuard guard;
+    if (last > first) {
+      auto runner = make_runner(su, o.backend, o.cuda);
+      device = runner->device();
+      if (rk.rank() == 0)
+        std::fprintf(stderr, "granflow ensemble: %s, %ld members (%s design of %s) over %d ranks\n  rank 0: %s; %s\n",
+                     su.scene.name.c_str(), design.members, design.method.c_str(), o.design.c_str(), rk.size(),
+                     device.c_str(), mpm::memory_line(su).c_str());
+      mpm::EnsembleOptions eo;
+      eo.out_dir = out;
+      eo.progress = !o.quiet && rk.rank() == 0;
+      eo.frames = o.frames;
+      eo.max_span = o.span;
+      eo.interrupt = &g_signal;
+      eo.first_member = static_cast<int>(first);
+      part = mpm::run_ensemble(su, ms, *runner, eo);
+      particles = su.particles.n;
+      nodes = su.n_nodes * su.members;
+    }
+  }
+  mpm::Packer p;
+  p.str(rk.host());
+  p.str(device);
+  p.pod(first);
+  p.pod(particles);
+  p.pod(nodes);
+  p.pod(part.steps);
+  p.pod(part.t_end);
+  p.pod(part.wall_s);
+  p.pod(part.interrupted);
+  p.str(mpm::pack_members(part.members));
+  const std::vector<std::string> all = rk.allgather(p.bytes());
+  if (rk.rank() != 0) return;
+
+  mpm::EnsembleSummary s;
+  s.times = part.times;
+  particles = nodes = 0;
+  device.clear();
+  std::vector<std::pair<long, std::string>> written;  // first member of each rank, its host
+  for (int r = 0; r < rk.size(); ++r) {
+    mpm::Unpacker u(all[r]);
+    const std::string host = u.str(), dev = u.str();
+    const long f = u.pod<long>();
+    particles += u.pod<long>();
+    nodes += u.pod<long>();
+    s.steps = std::max(s.steps, u.pod<long>());
+    s.t_end = std::max(s.t_end, u.pod<double>());
+    s.wall_s = std::max(s.wall_s, u.pod<double>());
+    const int interrupted = u.pod<int>();
+    s.interrupted = s.interrupted ? s.interrupted : interrupted;
+    const std::vector<mpm::MemberSummary> ms_r = mpm::unpack_members(u.str());
+    for (size_t k = 0; k < ms_r.size(); ++k) {
+      // every rank's member folders must be visible here: --out on a file system the hosts share
+      char name[32];
+      std::snprintf(name, sizeof name, "/member_%04ld", f + static_cast<long>(k));
+      if (!fs::exists(out + name + "/runout.csv"))
+        throw io::OutputError(out + name + "/runout.csv: written by rank " + std::to_string(r) + " on host " + host +
+                              " but not found by rank 0 on host " + rk.host() +
+                              ": --out must be a folder every host shares (docs/mpm_ensembles.md)",
+                              ENOENT);
+    }
+    s.members.insert(s.members.end(), ms_r.begin(), ms_r.end());
+    if (device.empty() && dev != "-") device = dev + " x " + std::to_string(rk.size()) + " ranks";
+  }
+  finish(o, design, su.scene, s, out, *folder, particles, nodes, device);
+}
+
 void run_ensemble_cmd(const EnsembleCmd& o) {
+  if (mpm::ranks().size() > 1) return run_ensemble_ranks(o);
   const mpm::EnsembleDesign design = mpm::load_design(o.design);
   check_vary_keys(o, design);
   // Members spread over the visible GPUs: contiguous groups, one runner (context) and one host
@@ -211,46 +370,7 @@ void run_ensemble_cmd(const EnsembleCmd& o) {
     particles += su.particles.n;
     nodes += su.n_nodes * su.members;
   }
-  io::write_file(out + "/summary.csv", summary_csv(design, sc, s));
-  {
-    std::ifstream in(o.design, std::ios::binary);
-    std::ostringstream text;
-    text << in.rdbuf();
-    io::write_file(out + "/design.toml", text.str());
-  }
-  long failed = 0;
-  for (const auto& m : s.members) failed += m.ok ? 0 : 1;
-  const double updates = double(particles) * double(s.steps);
-  std::printf("scene: %s\nmembers: %ld (%ld failed)\nparticles: %ld\nsteps: %ld\nsimulated: %.6g s\nwall: %.3f s\n",
-              sc.name.c_str(), design.members, failed, particles, s.steps, s.t_end, s.wall_s);
-  std::printf("device: %s\ngrid nodes: %ld\n", device.c_str(), nodes);
-  std::printf("particle-updates/s: %.4g\nwall per step: %.2f us\n", s.wall_s > 0 ? updates / s.wall_s : 0.0,
-              s.steps > 0 ? 1e6 * s.wall_s / s.steps : 0.0);
-  if (s.times.span_steps > 0)  // CUDA: kernel time of the spans (first device), the rest is the host's
-    std::printf("device time of spans: %.3f s (%.2f us per step)\n", s.times.device,
-                1e6 * s.times.device / s.times.span_steps);
-  for (size_t k = 0; k < s.members.size(); ++k)
-    if (!s.members[k].ok) std::printf("member %zu failed: %s\n", k, s.members[k].message.c_str());
-  std::printf("output: %s (summary.csv, member_NNNN/{runout,tracked,profile_final}.csv)\n", out.c_str());
-  if (s.interrupted) {
-    std::fprintf(stderr, "granflow: interrupted at t = %.6g s; wrote the series so far\n", s.t_end);
-    throw ExitStatus{128 + s.interrupted};
-  }
-  if (!o.no_png) {
-    const std::string script = locate_script("plot_ensemble.py");
-    if (script.empty()) {
-      std::fprintf(stderr, "PNGs skipped: scripts/plot_ensemble.py not found\n");
-    } else {
-      const std::string py = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-      const std::string cmd = py + " " + shell_word(script) + " " + shell_word(out);
-      if (std::system(cmd.c_str()) != 0) {
-        std::error_code ec;
-        fs::remove_all(out + "/png", ec);
-        std::fprintf(stderr, "PNGs skipped: '%s' failed\n", cmd.c_str());
-      }
-    }
-  }
-  folder.complete(failed == 0 ? "complete" : "complete; " + std::to_string(failed) + " members failed (summary.csv)");
+  finish(o, design, sc, s, out, folder, particles, nodes, device);
 }
 
 }  // namespace

@@ -2,12 +2,17 @@
 #include <cstdio>
 #include <exception>
 #include <iostream>
+#include <string>
 
 #include "commands.hpp"
+#include "mpi_ranks.hpp"
+#include <granflow/mpm/ranks.hpp>
 #include <granflow/io/input_error.hpp>
 #include <granflow/io/output.hpp>
 
-int main(int argc, char** argv) {
+namespace {
+
+int run(int argc, char** argv) {
   CLI::App app{
       "granflow: granular flow through the solid-like to fluid-like transition\n"
       "(SIMSAND-type frictional stress + kinetic-theory collisional stress)"};
@@ -23,7 +28,13 @@ int main(int argc, char** argv) {
   granflow::cli::register_mpm(app);
   granflow::cli::register_ensemble(app);
   granflow::cli::register_bench(app);
+  const std::string at = granflow::cli::MpiSession::where();  // "" in one process
   try {
+    if (granflow::mpm::ranks().size() > 1 && argc > 1 && std::string(argv[1]) != "ensemble" &&
+        std::string(argv[1]) != "calibrate" && std::string(argv[1]).rfind("-", 0) != 0)
+      throw granflow::io::InputError(std::string("granflow ") + argv[1] +
+                                     " runs in one process: under mpirun or srun start ensemble or calibrate, or "
+                                     "give -np 1");
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
@@ -33,7 +44,7 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     // Command-line mistakes: one line naming what was given, then where to look.
-    std::cerr << "granflow: error: " << e.what();
+    std::cerr << "granflow: error" << at << ": " << e.what();
     if (argc > 1) {
       std::cerr << " (command line:";
       for (int i = 1; i < argc; ++i) std::cerr << ' ' << argv[i];
@@ -45,14 +56,23 @@ int main(int argc, char** argv) {
     return e.code;
   } catch (const granflow::io::OutputError& e) {
     // a full disk, a read-only or forbidden folder: the user can fix it (2); EIO and the like: 1
-    std::cerr << "granflow: error: " << e.what() << "\n";
+    std::cerr << "granflow: error" << at << ": " << e.what() << "\n";
     return e.user_fixable() ? 2 : 1;
   } catch (const granflow::io::InputError& e) {
-    std::cerr << "granflow: error: " << e.what() << "\n";
+    std::cerr << "granflow: error" << at << ": " << e.what() << "\n";
     return 2;
   } catch (const std::exception& e) {
-    std::cerr << "granflow: error: " << e.what() << "\n";
+    std::cerr << "granflow: error" << at << ": " << e.what() << "\n";
     return 1;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  granflow::cli::MpiSession mpi(argc, argv);
+  const int rc = run(argc, argv);
+  granflow::cli::MpiSession::end_on_failure(rc);  // several ranks: a failed one ends them all
+  return rc;
 }
