@@ -10,6 +10,12 @@
 
 #include "granflow/calibration/fit.hpp"
 #include <granflow/io/input_error.hpp>
+#include <granflow/io/output.hpp>
+#include <granflow/io/sha256.hpp>
+#include <granflow/mpm/ranks.hpp>
+
+#include <filesystem>
+#include <fstream>
 
 namespace granflow::calibration {
 
@@ -22,6 +28,104 @@ std::string num(double v) {
   os.precision(6);
   os << v;
   return os.str();
+}
+
+
+// ---- the saved ES-MDA state (FitOptions::state_file) ------------------------------------
+// Format (host byte order): "GFESMDA1", the job's key, the state, then the SHA-256 of what
+// precedes it. The key is the SHA-256 of the job file's bytes, the ensemble settings, the prior
+// and the data vector with its sd: a state of another job, or of an edited one, is refused.
+
+constexpr const char* kStateMagic = "GFESMDA1";
+
+std::string state_key(const CalibrationJob& job, const EnsembleMethodSpec& spec, const std::vector<PriorBound>& prior,
+                      const std::vector<double>& data, const std::vector<double>& sd) {
+  mpm::Packer p;
+  std::ifstream in(job.file, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  p.str(text.str());
+  p.pod(spec.members);
+  p.pod(spec.iterations);
+  p.pod(spec.seed);
+  p.pod(spec.truncation);
+  p.pod(static_cast<int>(spec.transform));
+  for (const PriorBound& b : prior) {
+    p.str(b.key);
+    p.pod(b.lower);
+    p.pod(b.upper);
+    p.pod<char>(b.log);
+  }
+  p.pods(data);
+  p.pods(sd);
+  return io::sha256_hex(p.bytes());
+}
+
+std::string pack_state(const std::string& key, const EsmdaState& st) {
+  mpm::Packer p;
+  p.str(kStateMagic);
+  p.str(key);
+  p.pod(st.next);
+  p.pod(st.replaced);
+  p.pod(st.seconds);
+  p.pod<std::uint64_t>(st.z.size());
+  for (const auto& z : st.z) p.pods(z);
+  p.pod<std::uint64_t>(st.done.size());
+  for (const EnsembleIteration& it : st.done) {
+    p.pod<std::uint64_t>(it.thetas.size());
+    for (const auto& t : it.thetas) p.pods(t);
+    p.pod<std::uint64_t>(it.why.size());
+    for (const auto& w : it.why) p.str(w);
+    p.pods(it.misfit);
+    p.pod(it.failed);
+    p.pod(it.mean_misfit);
+    p.pod(it.best_misfit);
+    p.pod(it.seconds);
+  }
+  mpm::Packer out;
+  out.str(p.bytes());
+  out.str(io::sha256_hex(p.bytes()));
+  return out.bytes();
+}
+
+// The state in `file` for `key`; throws InputError naming the file when it is damaged or of
+// another job.
+EsmdaState unpack_state(const std::string& file, const std::string& bytes, const std::string& key) {
+  const std::string again = " (remove it to start the calibration afresh)";
+  try {
+    mpm::Unpacker outer(bytes);
+    const std::string payload = outer.str(), digest = outer.str();
+    if (!outer.done() || io::sha256_hex(payload) != digest) throw std::runtime_error("checksum");
+    mpm::Unpacker u(payload);
+    if (u.str() != kStateMagic) throw std::runtime_error("magic");
+    if (u.str() != key)
+      throw io::InputError(file + ": the saved ensemble state is of another job, or the job, its data or settings " +
+                           "changed since" + again);
+    EsmdaState st;
+    st.next = u.pod<int>();
+    st.replaced = u.pod<long>();
+    st.seconds = u.pod<double>();
+    st.z.resize(u.pod<std::uint64_t>());
+    for (auto& z : st.z) z = u.pods<double>();
+    st.done.resize(u.pod<std::uint64_t>());
+    for (EnsembleIteration& it : st.done) {
+      it.thetas.resize(u.pod<std::uint64_t>());
+      for (auto& t : it.thetas) t = u.pods<double>();
+      it.why.resize(u.pod<std::uint64_t>());
+      for (auto& w : it.why) w = u.str();
+      it.misfit = u.pods<double>();
+      it.failed = u.pod<long>();
+      it.mean_misfit = u.pod<double>();
+      it.best_misfit = u.pod<double>();
+      it.seconds = u.pod<double>();
+    }
+    if (!u.done()) throw std::runtime_error("trailing bytes");
+    return st;
+  } catch (const io::InputError&) {
+    throw;
+  } catch (const std::exception&) {
+    throw io::InputError(file + ": not a readable saved ensemble state (truncated or damaged)" + again);
+  }
 }
 
 }  // namespace
@@ -116,6 +220,22 @@ FitResult fit_ensemble(const Objective& obj, const FitOptions& options) {
                  x.mean_misfit, x.best_misfit, r.seconds);
     std::fflush(stderr);
   };
+  EsmdaState resume;
+  std::string key;
+  if (!options.state_file.empty()) {
+    key = state_key(job, spec, prior, rep->data, rep->sd);
+    std::error_code ec;
+    if (std::filesystem::exists(options.state_file, ec)) {
+      std::ifstream in(options.state_file, std::ios::binary);
+      std::ostringstream bytes;
+      bytes << in.rdbuf();
+      resume = unpack_state(options.state_file, bytes.str(), key);
+      spec.resume = &resume;
+      std::fprintf(stderr, "calibrate: resuming the ensemble at iteration %d/%d from %s\n", resume.next,
+                   es.iterations, options.state_file.c_str());
+    }
+    spec.save = [&](const EsmdaState& st) { io::write_file(options.state_file, pack_state(key, st)); };
+  }
   rep->result = run_ensemble_method(prior, rep->data, rep->sd, forward, spec, progress);
   const EnsembleResult& er = rep->result;
 

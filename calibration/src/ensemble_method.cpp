@@ -73,8 +73,23 @@ EnsembleResult esmda_core(std::vector<std::vector<double>> z, const std::vector<
   Eigen::Map<const Eigen::VectorXd> s(sd.data(), static_cast<Eigen::Index>(m));
   const Eigen::VectorXd ds = d.cwiseQuotient(s);  // data in units of its sd
   EnsembleResult res;
+  int first = 0;
+  double before = 0;  // seconds of the iterations a resumed run did not repeat
+  if (const EsmdaState* st = spec.resume) {
+    if (st->next < 1 || st->next > spec.iterations || st->z.size() != N || st->done.size() != static_cast<std::size_t>(st->next))
+      throw std::invalid_argument("ensemble method: the saved state (iteration " + std::to_string(st->next) + ", " +
+                                  std::to_string(st->z.size()) + " members) does not fit " +
+                                  std::to_string(spec.iterations) + " iterations of " + std::to_string(N) + " members");
+    for (const auto& zi : st->z)
+      if (zi.size() != n) throw std::invalid_argument("ensemble method: the saved state's members differ in dimension");
+    z = st->z;
+    res.iterations = st->done;
+    res.replaced = st->replaced;
+    first = st->next;
+    before = st->seconds;
+  }
 
-  for (int it = 0; it <= spec.iterations; ++it) {
+  for (int it = first; it <= spec.iterations; ++it) {
     EnsembleIteration rec;
     std::vector<std::vector<double>> thetas(N);
     for (std::size_t i = 0; i < N; ++i) thetas[i] = to_theta(z[i]);
@@ -117,7 +132,7 @@ EnsembleResult esmda_core(std::vector<std::vector<double>> z, const std::vector<
     rec.mean_misfit = good.empty() ? kNaN : sum / static_cast<double>(good.size());
     rec.best_misfit = good.empty() ? kNaN : best;
     res.iterations.push_back(rec);
-    res.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    res.seconds = before + std::chrono::duration<double>(Clock::now() - t0).count();
 
     const bool last = it == spec.iterations;
     if (good.size() < (last ? 1u : 2u)) {
@@ -191,8 +206,11 @@ EnsembleResult esmda_core(std::vector<std::vector<double>> z, const std::vector<
       for (std::size_t j = 0; j < n; ++j) next[i][j] += dz(j);
     }
     z = std::move(next);
+    if (spec.save)
+      spec.save(EsmdaState{it + 1, z, res.iterations, res.replaced,
+                           before + std::chrono::duration<double>(Clock::now() - t0).count()});
   }
-  res.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  res.seconds = before + std::chrono::duration<double>(Clock::now() - t0).count();
   return res;
 }
 

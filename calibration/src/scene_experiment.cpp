@@ -8,13 +8,17 @@
 //   track    a tracked point's x and y against the time since the release
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <mutex>
 #include <sstream>
+#include <type_traits>
 
 #include <granflow/calibration/experiment.hpp>
 #include <granflow/io/csv_table.hpp>
 #include <granflow/io/input_error.hpp>
 #include <granflow/io/toml_reader.hpp>
 #include <granflow/mpm/ensemble.hpp>
+#include <granflow/mpm/ranks.hpp>
 #include <granflow/mpm/scene_file.hpp>
 
 namespace granflow::calibration {
@@ -47,10 +51,17 @@ class SceneExperiment final : public Experiment {
   std::vector<SceneCurve> measured;  // one per curve
   bool progress = true;
 
+  std::size_t index = 0;  // of its [[experiments]] table: names it to the other ranks
+
   bool batched() const override { return true; }
   Prediction predict(const io::ParameterSet& params) const override { return predict_batch({params}).front(); }
 
-  std::vector<Prediction> predict_batch(const std::vector<io::ParameterSet>& sets) const override {
+  // Under several MPI ranks a batch of more than one set is split over them (share below); a
+  // single set runs here.
+  std::vector<Prediction> predict_batch(const std::vector<io::ParameterSet>& sets) const override;
+
+  // The sets as one ensemble run in this process.
+  std::vector<Prediction> predict_here(const std::vector<io::ParameterSet>& sets) const {
     const mpm::Scene base = mpm::load_scene(scene_file, fixed);
     std::vector<Prediction> out(sets.size());
     std::vector<mpm::SceneSetup> ms;
@@ -75,7 +86,7 @@ class SceneExperiment final : public Experiment {
     const bool gpu = backend == "cuda" || (backend == "auto" && mpm::cuda_backend_available());
     auto runner = gpu ? mpm::make_cuda_runner(su) : mpm::make_cpu_runner(su);
     mpm::EnsembleOptions eo;
-    eo.progress = progress;
+    eo.progress = progress && mpm::ranks().rank() == 0;
     const mpm::EnsembleSummary es = mpm::run_ensemble(su, ms, *runner, eo);
     for (size_t i = 0; i < sets.size(); ++i) {
       if (member_of_set[i] == SIZE_MAX) continue;
@@ -133,6 +144,94 @@ class SceneExperiment final : public Experiment {
   }
 };
 
+// ---- batches over MPI ranks (mpm/ranks.hpp) -------------------------------------------------
+// Rank 0 runs the calibration; the other ranks wait in serve_scene_batches. For a batch, rank 0
+// broadcasts a request (the experiment's table index and the sets), every rank runs its
+// contiguous share of the sets as one ensemble, and the predictions are gathered in set order.
+
+static_assert(std::is_trivially_copyable_v<FrictionalParams<double>> &&
+              std::is_trivially_copyable_v<CollisionalParams<double>>);
+
+std::string pack_request(std::size_t index, const std::vector<io::ParameterSet>& sets) {
+  mpm::Packer p;
+  p.pod<std::uint8_t>(1);
+  p.pod<std::uint64_t>(index);
+  p.pod<std::uint64_t>(sets.size());
+  for (const io::ParameterSet& s : sets) {  // what predict_here reads of a set
+    p.str(s.file);
+    p.pod<char>(s.frictional.has_value());
+    if (s.frictional) p.pod(*s.frictional);
+    p.pod<char>(s.collisional.has_value());
+    if (s.collisional) p.pod(*s.collisional);
+  }
+  return p.bytes();
+}
+
+std::vector<io::ParameterSet> unpack_sets(mpm::Unpacker& u) {
+  std::vector<io::ParameterSet> sets(u.pod<std::uint64_t>());
+  for (io::ParameterSet& s : sets) {
+    s.file = u.str();
+    if (u.pod<char>()) s.frictional = u.pod<FrictionalParams<double>>();
+    if (u.pod<char>()) s.collisional = u.pod<CollisionalParams<double>>();
+  }
+  return sets;
+}
+
+// Every rank: its share of `sets`, then all predictions (rank 0 uses them; a rank whose share
+// threw makes rank 0 throw naming that rank and host).
+std::vector<Prediction> share(const SceneExperiment& e, const std::vector<io::ParameterSet>& sets) {
+  const mpm::Ranks& rk = mpm::ranks();
+  const auto [a, b] = mpm::rank_members(static_cast<long>(sets.size()), rk.rank(), rk.size());
+  mpm::Packer p;
+  try {
+    const std::vector<Prediction> mine =
+        b > a ? e.predict_here(std::vector<io::ParameterSet>(sets.begin() + a, sets.begin() + b))
+              : std::vector<Prediction>{};
+    p.pod<char>(1);
+    p.pod<std::uint64_t>(mine.size());
+    for (const Prediction& q : mine) {
+      p.pod<char>(q.ok);
+      p.str(q.error);
+      p.pod<std::uint64_t>(q.values.size());
+      for (const auto& v : q.values) p.pods(v);
+    }
+  } catch (const std::exception& ex) {
+    p = mpm::Packer();
+    p.pod<char>(0);
+    p.str(ex.what());
+  }
+  const std::vector<std::string> all = rk.allgather(p.bytes());
+  std::vector<Prediction> out;
+  for (int r = 0; r < rk.size(); ++r) {
+    mpm::Unpacker u(all[r]);
+    if (!u.pod<char>())
+      throw std::runtime_error("rank " + std::to_string(r) + " of " + std::to_string(rk.size()) + ": " + u.str());
+    for (auto n = u.pod<std::uint64_t>(); n > 0; --n) {
+      Prediction q;
+      q.ok = u.pod<char>() != 0;
+      q.error = u.str();
+      q.values.resize(u.pod<std::uint64_t>());
+      for (auto& v : q.values) v = u.pods<double>();
+      out.push_back(std::move(q));
+    }
+  }
+  if (out.size() != sets.size())
+    throw std::runtime_error("ranks returned " + std::to_string(out.size()) + " predictions for " +
+                             std::to_string(sets.size()) + " sets");
+  return out;
+}
+
+std::mutex g_request;  // rank 0: one request at a time (the objective's threads may call)
+
+std::vector<Prediction> SceneExperiment::predict_batch(const std::vector<io::ParameterSet>& sets) const {
+  const mpm::Ranks& rk = mpm::ranks();
+  if (rk.size() < 2 || sets.size() < 2) return predict_here(sets);
+  std::lock_guard<std::mutex> lock(g_request);
+  std::string request = pack_request(index, sets);
+  rk.broadcast(request);
+  return share(*this, sets);
+}
+
 // A data table of an experiment: its file (relative to the job), two columns, the sd.
 Curve read_curve(io::TomlTable& t, const std::string& job_file, const std::string& xkey, const std::string& ykey,
                  const std::string& experiment, const std::string& model_output, double default_sd) {
@@ -170,6 +269,7 @@ inline constexpr double kTrackSd = 0.005;    // m
 std::shared_ptr<const Experiment> make_scene_experiment(io::TomlTable& t, const std::string& job_file,
                                                         std::size_t index) {
   auto e = std::make_shared<SceneExperiment>();
+  e->index = index;
   e->name = t.string_or("name", "experiment" + std::to_string(index + 1));
   e->kind = t.choice("kind", {"mpm_scene"}, "mpm_scene");
   std::string scene = t.string("scene");
@@ -211,6 +311,39 @@ std::shared_ptr<const Experiment> make_scene_experiment(io::TomlTable& t, const 
   }
   if (e->curves.empty()) t.fail("surface", "an mpm_scene experiment needs [surface], [front] or [[track]] data");
   return e;
+}
+
+void serve_scene_batches(const std::vector<std::shared_ptr<const Experiment>>& experiments) {
+  const mpm::Ranks& rk = mpm::ranks();
+  if (rk.size() < 2 || rk.rank() == 0) return;
+  for (;;) {
+    std::string request;
+    rk.broadcast(request);
+    mpm::Unpacker u(request);
+    if (u.pod<std::uint8_t>() == 0) return;
+    const auto index = u.pod<std::uint64_t>();
+    const std::vector<io::ParameterSet> sets = unpack_sets(u);
+    const SceneExperiment* e = nullptr;
+    for (const auto& x : experiments)
+      if (const auto* s = dynamic_cast<const SceneExperiment*>(x.get()); s && s->index == index) e = s;
+    if (!e)  // the same job on every rank gives the same experiments
+      throw std::runtime_error("the job as read by this rank has no mpm_scene experiment in table " +
+                               std::to_string(index + 1) + ": every rank must read the same job file");
+    try {
+      share(*e, sets);
+    } catch (const std::exception&) {  // rank 0 reports it
+    }
+  }
+}
+
+void end_scene_batches() {
+  const mpm::Ranks& rk = mpm::ranks();
+  if (rk.size() < 2 || rk.rank() != 0) return;
+  std::lock_guard<std::mutex> lock(g_request);
+  mpm::Packer p;
+  p.pod<std::uint8_t>(0);
+  std::string done = p.bytes();
+  rk.broadcast(done);
 }
 
 }  // namespace granflow::calibration

@@ -28,13 +28,6 @@ struct PriorBound {
 // heavy tails leave prior members far out in flat regions of the model for more iterations.
 enum class UnitTransform { Probit, Logit };
 
-struct EnsembleMethodSpec {
-  long members = 64;
-  int iterations = 4;        // ES-MDA assimilations, each with inflation alpha = iterations
-  std::uint64_t seed = 1;    // prior sample (Latin hypercube) and data perturbations
-  double truncation = 0.999; // energy (sum of squared singular values) kept of the scaled prediction anomalies
-  UnitTransform transform = UnitTransform::Probit;
-};
 
 // Forward model of a batch: thetas[i] (physical units) -> predictions[i] (one value per datum,
 // in the order of `data`), ok[i] = false where member i could not be computed (its message in
@@ -53,6 +46,27 @@ struct EnsembleIteration {
   long failed = 0;
   double mean_misfit = 0, best_misfit = 0;
   double seconds = 0;                       // of the batch
+};
+
+// Where the iterations stand after an update: what a resumed run starts from.
+struct EsmdaState {
+  int next = 1;                             // the iteration whose batch comes next (1..iterations)
+  std::vector<std::vector<double>> z;       // members entering it (unbounded coordinates)
+  std::vector<EnsembleIteration> done;      // the iterations before it (`next` entries)
+  long replaced = 0;
+  double seconds = 0;                       // of the iterations before it
+};
+
+struct EnsembleMethodSpec {
+  long members = 64;
+  int iterations = 4;        // ES-MDA assimilations, each with inflation alpha = iterations
+  std::uint64_t seed = 1;    // prior sample (Latin hypercube) and data perturbations
+  double truncation = 0.999; // energy (sum of squared singular values) kept of the scaled prediction anomalies
+  UnitTransform transform = UnitTransform::Probit;
+  // Continue from a saved state (granflow calibrate's resume), and save one after every update.
+  // The random streams are seeded per iteration, so a resumed run equals an uninterrupted one.
+  const EsmdaState* resume = nullptr;
+  std::function<void(const EsmdaState&)> save;
 };
 
 struct ParameterSummary {

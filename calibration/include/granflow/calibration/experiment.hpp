@@ -130,6 +130,13 @@ std::vector<std::shared_ptr<const Experiment>> make_element_experiments(const st
 std::shared_ptr<const Experiment> make_scene_experiment(io::TomlTable& table, const std::string& job_file,
                                                         std::size_t index);
 
+// Several MPI ranks (mpm/ranks.hpp; docs/calibration.md, "Several processes"): rank 0 runs the
+// calibration and splits each batch of more than one set of an mpm_scene experiment over the
+// ranks. The other ranks call serve_scene_batches with the job's experiments; it returns when
+// rank 0 calls end_scene_batches. Both do nothing in one process.
+void serve_scene_batches(const std::vector<std::shared_ptr<const Experiment>>& experiments);
+void end_scene_batches();
+
 // Synthetic data for an element experiment: runs the test with `truth`, keeps every `stride`-th
 // output row after the first, multiplies every target by (1 + noise * N(0,1)) from a generator
 // seeded with `seed` and returns the text of sel.file (the abscissa and target columns). Used by

@@ -134,6 +134,9 @@ bool prediction_vector(const Objective& objective, const std::vector<Prediction>
 struct FitOptions {
   bool progress = true;        // progress line on stderr
   bool evaluate_only = false;  // no optimisation: report the misfit and identifiability at the start values
+  // Ensemble method: the ES-MDA state is saved here after every update, and a run of the same
+  // job finding it continues from it (docs/calibration.md, "Resume"). Empty: neither.
+  std::string state_file;
 };
 
 struct FitResult {
