@@ -7,6 +7,7 @@
 #include <iostream>
 #include <string>
 
+#include <granflow/calibration/experiment.hpp>
 #include <granflow/calibration/fit.hpp>
 #include <granflow/calibration/job.hpp>
 #include <granflow/calibration/synthesize.hpp>
@@ -16,6 +17,7 @@
 #include <granflow/io/input_error.hpp>
 #include <granflow/io/parameter_set.hpp>
 #include <granflow/io/run_folder.hpp>
+#include <granflow/mpm/ranks.hpp>
 
 namespace granflow::cli {
 
@@ -48,6 +50,7 @@ void run_calibrate(const CalibrateOptions& o) {
     s.stride = o.stride;
     s.force = o.force;
     synthesize_job_data(o.job, s);
+    end_scene_batches();
     std::cerr << "calibrate: wrote the data files of the element experiments of " << o.job << " from "
               << s.truth.file << " (noise " << o.noise << ", seed " << o.seed << ")\n";
     return;
@@ -60,7 +63,14 @@ void run_calibrate(const CalibrateOptions& o) {
   FitOptions fo;
   fo.progress = !o.quiet;
   fo.evaluate_only = o.evaluate;
+  // the ES-MDA state beside the folder, as its lock: a run stopped part way continues from it
+  const std::string state = out + ".esmda-state";
+  if (job.algorithm.method == "ensemble" && !o.evaluate) fo.state_file = state;
+  if (mpm::ranks().size() > 1)
+    std::fprintf(stderr, "calibrate: %d MPI ranks: the members of each mpm_scene batch are split over them\n",
+                 mpm::ranks().size());
   const FitResult r = fit(obj, fo);
+  end_scene_batches();  // the other ranks are done
   if (!o.quiet) std::cout << format_report(obj, r);
   const bool per_test = !job.predictions.empty() ||
                         std::any_of(job.free.begin(), job.free.end(), [](const auto& p) { return !p.experiment.empty(); });
@@ -70,6 +80,10 @@ void run_calibrate(const CalibrateOptions& o) {
     write_test_report(tr, obj.parameters_at(r.theta), folder.staging(), !o.no_plot);
   }
   write_outputs(obj, r, folder, !o.no_plot);
+  if (!fo.state_file.empty()) {  // the results are in place: nothing to resume
+    std::error_code ec;
+    fs::remove(fo.state_file, ec);
+  }
   std::cerr << "calibrate: wrote " << out << "/" << job.output_name << ".toml and the reports in " << out << "/\n";
 }
 
@@ -115,8 +129,13 @@ void register_calibrate(CLI::App& app) {
   cmd->add_option("--seed", o->seed, "Seed of --synthesize")->capture_default_str();
   cmd->add_option("--stride", o->stride, "Keep every n-th output row in --synthesize")->capture_default_str();
   cmd->callback([o] {
+    if (o->bench && mpm::ranks().size() > 1) throw io::InputError("calibrate --bench runs in one process");
     if (o->bench) return run_bench(*o);
     if (o->job.empty()) throw io::InputError("granflow calibrate: give a job file (or --bench)");
+    if (mpm::ranks().rank() != 0) {  // MPI: rank 0 calibrates, the others run their share of its batches
+      if (!o->synthesize.empty()) return calibration::serve_scene_batches({});
+      return calibration::serve_scene_batches(calibration::load_job(o->job).experiments);
+    }
     run_calibrate(*o);
   });
 }
