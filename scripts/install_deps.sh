@@ -7,6 +7,7 @@ packages=(build-essential cmake libeigen3-dev libsundials-dev libnlopt-cxx-dev l
           clang libclang-rt-dev  # clang + libFuzzer: scripts/fuzz.sh
           gfortran)              # the UMAT's Fortran calling-convention test (tests/umat)
 packages+=(pybind11-dev python3-dev python3-numpy python3-pytest)  # Python module: docs/python.md
+packages+=(libopenmpi-dev openmpi-bin)  # optional MPI: ensembles and calibration over ranks (docs/mpm_ensembles.md)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
