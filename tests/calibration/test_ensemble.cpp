@@ -245,6 +245,50 @@ TEST(CalibrationEnsemble, FailedMembersAreReplacedAndAllFailingIsAnError) {
   }
 }
 
+// Resume (issue 27): the state saved after iteration k, given back, continues to the result of
+// an uninterrupted run bit for bit, with failed members and their replacements on the way; a
+// state that does not fit the spec is refused.
+TEST(CalibrationEnsemble, ResumedRunEqualsAnUninterruptedOne) {
+  const std::vector<PriorBound> prior = {{"a", 0.0, 1.0, false}, {"b", 0.1, 10.0, true}};
+  const std::vector<double> data = {0.3, 1.0}, sd = {0.05, 0.1};
+  long calls = 0;
+  const BatchForward forward = [&](const std::vector<std::vector<double>>& t) {
+    ++calls;
+    BatchResult b;
+    for (const auto& th : t) {
+      const bool fails = th[0] > 0.8;
+      b.predictions.push_back(fails ? std::vector<double>() : std::vector<double>{th[0], std::log10(th[1]) + 1.0});
+      b.ok.push_back(fails ? 0 : 1);
+      b.why.push_back(fails ? "a > 0.8" : "");
+    }
+    return b;
+  };
+  EnsembleMethodSpec spec;
+  spec.members = 20;
+  spec.iterations = 3;
+  std::vector<EsmdaState> saved;
+  spec.save = [&](const EsmdaState& st) { saved.push_back(st); };
+  const EnsembleResult full = run_ensemble_method(prior, data, sd, forward, spec);
+  ASSERT_EQ(saved.size(), 3u);  // after each of the 3 updates
+  EXPECT_GT(full.replaced, 0);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(saved[k].next, k + 1);
+    spec.save = nullptr;
+    spec.resume = &saved[k];
+    calls = 0;
+    const EnsembleResult r = run_ensemble_method(prior, data, sd, forward, spec);
+    EXPECT_EQ(calls, 3 - k) << "resumed after update " << k + 1;  // only the batches not yet run
+    EXPECT_EQ(r.posterior, full.posterior);
+    EXPECT_EQ(r.replaced, full.replaced);
+    ASSERT_EQ(r.iterations.size(), full.iterations.size());
+    for (std::size_t i = 0; i < r.iterations.size(); ++i) EXPECT_EQ(r.iterations[i].thetas, full.iterations[i].thetas);
+  }
+  EsmdaState bad = saved[0];
+  bad.z.pop_back();
+  spec.resume = &bad;
+  EXPECT_THROW(run_ensemble_method(prior, data, sd, forward, spec), std::invalid_argument);
+}
+
 // The data vector: ln y with relative_sd for a log misfit; y with relative_sd x RMS for a linear
 // one; target_sd (data units) where given, divided by y for a log misfit; curves in job order.
 TEST(CalibrationEnsemble, LikelihoodDataFollowTheCurvesAndTheirSd) {
