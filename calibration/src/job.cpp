@@ -309,7 +309,11 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
     if (p.key == "collisional.V_sd") vsd_min = p.lower - gap;
     if (p.key == "collisional.e_sd") vsd_min = 1.0 / (1.0 + p.upper) - gap;
   }
+  // With V_sd(mu_p) the limit depends on each group's friction: points beyond it get the failure
+  // penalty instead (the fit moves away from them), so there is no check here.
+  const bool vsd_of_friction = job.start.collisional && job.start.collisional->jamming_friction;
   for (const auto& e : job.experiments) {
+    if (vsd_of_friction) break;
     if (e->kind != "steady_shear" || e->abscissa_quantity != "solid_fraction") continue;
     if (e->x_max() >= vsd_min)
       throw io::InputError(io::where(path) + "experiment '" + e->name + "' has data up to solid fraction " +
