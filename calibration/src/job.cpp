@@ -236,6 +236,31 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
     l->finish();
   }
 
+  if (auto cv = root.optional_table("cross_validation")) {
+    CrossValidationSpec& c = job.cross_validation;
+    c.present = true;
+    if (cv->has("windows_lo") != cv->has("windows_hi"))
+      cv->fail(cv->has("windows_lo") ? "windows_hi" : "windows_lo", "give both windows_lo and windows_hi");
+    if (cv->has("windows_lo")) {
+      const auto lo = cv->numbers("windows_lo", io::Bounds::closed(0.0, 1.0), false);
+      const auto hi = cv->numbers("windows_hi", io::Bounds::closed(0.0, 1.0), false);
+      if (lo.size() != hi.size()) cv->fail("windows_hi", "needs as many values as windows_lo");
+      for (std::size_t i = 0; i < lo.size(); ++i) {
+        if (!(lo[i] < hi[i])) cv->fail("windows_hi", "each window needs lo < hi");
+        c.windows.emplace_back(lo[i], hi[i]);
+      }
+    } else {
+      c.windows = {{0.0, 0.57}};
+    }
+    c.bands = cv->has("bands") ? cv->numbers("bands", io::Bounds::closed(0.0, 1.0), false)
+                               : std::vector<double>{0.0, 0.1, 0.5, 0.57};
+    if (c.bands.size() < 2 || !std::is_sorted(c.bands.begin(), c.bands.end()))
+      cv->fail("bands", "expected at least two increasing band edges");
+    c.leave_one_group = cv->boolean_or("leave_one_group", true);
+    c.leave_one_friction = cv->boolean_or("leave_one_friction", true);
+    cv->finish();
+  }
+
   auto exps = root.array_of_tables("experiments");
   if (exps.empty()) root.fail("experiments", "a job needs at least one [[experiments]] entry");
   std::set<std::string> names;
@@ -273,6 +298,8 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
       }
       for (auto& e : make_steady_shear_experiments(p.name, p.sel, p.ss))
         (p.predict ? job.predictions : job.experiments).push_back(e);
+      job.steady_shear_sources.push_back({p.name, std::make_shared<const DataSelection>(p.sel),
+                                          std::make_shared<const SteadyShearSpec>(p.ss), p.predict});
     }
     t.finish();
   }
