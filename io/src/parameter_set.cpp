@@ -62,6 +62,10 @@ void read_collisional_options(TomlTable& t, CollisionalParams<double>& c) {
     }
     j->finish();
   }
+  if (auto d = t.optional_table("dilute")) {
+    c.dilute_usf = d->choice("model", {"navier_stokes", "uniform_shear"}, "") == "uniform_shear";
+    d->finish();
+  }
   if (auto l = t.optional_table("correlation_length")) {
     c.corr_c = l->number("c", Bounds::positive());
     l->finish();
@@ -282,6 +286,7 @@ std::string format_parameter_set(const ParameterSet& s) {
       os << "\n[collisional.jamming]\nmodel = \"friction\"\nV_sd_inf = " << c.V_sd_inf << "\nmu_star = " << c.mu_star
          << "\n";
     if (c.corr_c > 0) os << "\n[collisional.correlation_length]\nc = " << c.corr_c << "\n";
+    if (c.dilute_usf) os << "\n[collisional.dilute]\nmodel = \"uniform_shear\"\n";
   }
   if (!s.e0.empty() || s.T0) {
     os << "\n[initial]\n";

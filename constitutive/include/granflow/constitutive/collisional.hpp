@@ -69,6 +69,17 @@ GF_HDI S cooling_coefficient_zetaU(const KineticFunctions<S>& k, S a) {
   return -(S(1) - a) * (k.p_star - S(1)) + S(5) / S(32) * (S(1) - a2) * (S(1) + S(3) / S(64) * cs) * k.g0 * C_D;  // B11
 }
 
+// Dilute uniform shear flow, Grad's moment method (Santos, Garzo & Dufty 2004): with the
+// collision moments -nu (beta Pi_ij + zeta* p delta_ij), the steady state has
+// a*^2 = (3/2) zeta* beta^2 / (beta - zeta*), the Navier-Stokes one (3/2) zeta* (beta - zeta*/2).
+// T scales as 1/a*^2 at a given shear rate: T_Grad / T_NS = (1 - z)(1 - z/2), z = zeta*/beta, and
+// the Navier-Stokes balance gives this T when eta_k* is multiplied by the same factor.
+template <class S>
+GF_HDI S uniform_shear_viscosity_factor(S z) {
+  const S r = (S(1) - z) * (S(1) - S(0.5) * z);
+  return r > S(0) ? r : S(0);
+}
+
 // Everything the collisional stress and the temperature balance need at one solid fraction,
 // in the dimensionless groups of MODEL.md 5.2:
 //   eta_c = rho_p d K_eta s,  kappa_c = rho_p d K_kappa s,  Gamma_0 = rho_p K_Gamma s^3 / d.
@@ -98,20 +109,29 @@ GF_HDI KineticCoefficients<S> kinetic_coefficients(const CollisionalParams<S>& c
   kc.g0 = g0;
   kc.Gc = kt.Gc;
   kc.p_star = kt.p_star;
-  kc.K_eta = S(8) / (S(5) * S(kSqrtPi)) * Vs * kt.Gc * kt.J;
+  S zeta0 = kt.zeta0_star;
   kc.K_kappa = S(4) / (S(3) * S(kSqrtPi)) * Vs * kt.Gc * kt.Q;
   if (!diss_only) {
     kc.K_Gamma = S(144) / (S(5) * S(kSqrtPi)) * Vs * Vs * kt.zeta0_star;
     kc.zeta_U = cooling_coefficient_zetaU(kt, a_diss);
   } else {
     const KineticFunctions<S> kd = kinetic_functions(Vs, g0, a_diss);
+    zeta0 = kd.zeta0_star;
     kc.K_Gamma = S(144) / (S(5) * S(kSqrtPi)) * Vs * Vs * kd.zeta0_star;
     kc.zeta_U = cooling_coefficient_zetaU(kd, a_diss);
   }
+  S J = kt.J;
+  if (c.dilute_usf) {  // eta_k* -> r eta_k* in A4, then A2 (uniform_shear_viscosity_factor)
+    const S eta_star = kt.eta_k_star * uniform_shear_viscosity_factor(zeta0 / kt.nu_eta_star) *
+                           (S(1) + S(0.8) * kt.Gc * (S(1) + a_tr)) +
+                       S(0.6) * kt.kappa_star;
+    J = S(25) * S(kPi) * eta_star / (S(768) * kt.Gc * Vs);
+  }
+  kc.K_eta = S(8) / (S(5) * S(kSqrtPi)) * Vs * kt.Gc * J;
   // Jenkins (2006, 2007): L/d = max(1, c_L sqrt(2J/(15(1 - alpha^2))) G_c^(1/3) d gammadot / sqrt(T)).
   const S one_m_a2 = S(1) - a_diss * a_diss;
   kc.lambda_L = c.corr_c > S(0) && one_m_a2 > S(0)
-                    ? c.corr_c * std::sqrt(S(2) * kt.J / (S(15) * one_m_a2)) * std::cbrt(kt.Gc)
+                    ? c.corr_c * std::sqrt(S(2) * J / (S(15) * one_m_a2)) * std::cbrt(kt.Gc)
                     : S(0);
   return kc;
 }

@@ -55,6 +55,10 @@ struct CollisionalParams {
   // Jenkins' correlation length in the dissipation: L/d = max(1, c_L sqrt(2J/(15(1-alpha^2)))
   // G_c^(1/3) d gammadot / sqrt(T)). 0: off (L = d).
   S corr_c = 0;
+  // Dilute uniform-shear correction: the kinetic shear viscosity eta_k* times the factor
+  // r = (1 - z)(1 - z/2), z = zeta0*/nu_eta*, that takes the Navier-Stokes steady simple shear to
+  // the Grad-moment solution of uniform shear flow (Santos, Garzo & Dufty 2004). Off: r = 1.
+  bool dilute_usf = false;
 };
 
 template <class S>
@@ -89,6 +93,7 @@ GF_HDI CollisionalParams<T> params_cast(const CollisionalParams<S>& p) {
   o.mu_p = T(p.mu_p); o.vs_gap = T(p.vs_gap);
   o.restitution = p.restitution; o.jamming_friction = p.jamming_friction;
   o.V_sd_inf = T(p.V_sd_inf); o.mu_star = T(p.mu_star); o.corr_c = T(p.corr_c);
+  o.dilute_usf = p.dilute_usf;
   return o;
 }
 
