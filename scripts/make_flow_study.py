@@ -5,7 +5,8 @@ import os
 
 OUT = os.path.join(os.path.dirname(__file__), "..", "data", "calibration", "flow_study")
 # name: (options, description); options: R restitution in the dissipation only, J V_sd(mu_p),
-# L Jenkins' correlation length, D dilute uniform-shear correction
+# L Jenkins' correlation length, D dilute uniform-shear correction, K the friction factor of
+# Eq. (24) (1.5 in Chialvo & Sundaresan 2013) fitted
 COMBOS = {
     "base": ("", "MODEL.md's model, V_sd and V_m free (constant)"),
     "R": ("R", "effective restitution in the dissipation only"),
@@ -18,6 +19,10 @@ COMBOS = {
     "JDR": ("JDR", "V_sd(mu_p), dilute correction, restitution in the dissipation only"),
     "JLD": ("JLD", "V_sd(mu_p), correlation length, dilute correction"),
     "JLDR": ("JLDR", "V_sd(mu_p), correlation length, dilute correction, restitution in the dissipation only"),
+    "JDK": ("JDK", "V_sd(mu_p), dilute correction, friction factor of Eq. (24) free"),
+    "JDRK": ("JDRK", "V_sd(mu_p), dilute correction, restitution in the dissipation only, friction factor free"),
+    "JLDRK": ("JLDRK", "V_sd(mu_p), correlation length, dilute correction, restitution in the dissipation only, "
+                       "friction factor free"),
 }
 
 
@@ -52,6 +57,10 @@ def job(name, opts, what):
     s += free("collisional.V_m", 0.2, 0.56)
     if "L" in opts:
         s += free("collisional.correlation_length.c", 0.01, 5.0)
+    if "K" in opts:
+        s += free("collisional.restitution.friction_factor", 0.0, 3.0)
+    held = ('# mu_p = 0.5 alone cannot fix V_sd(0) and the fall: those stay at the start (0.64, mu_star 0.1)\n'
+            'friction_held = { "0.5" = ["collisional.V_sd", "collisional.jamming.mu_star"] }\n')
     s += '''
 [misfit]
 scale = "log"                           # p, s and T span decades
@@ -67,7 +76,7 @@ seed = 1
 windows_lo = [0.0, 0.1, 0.1]            # [lo, hi): every point below 0.57 (the data start at 0.01),
 windows_hi = [0.57, 0.57, 0.555]        # and the shipped narrower windows
 bands = [0.0, 0.1, 0.5, 0.57]           # which range of solid fraction holds the error
-
+HELD
 [[experiments]]
 name = "dem"
 kind = "steady_shear"
@@ -84,7 +93,7 @@ units = "dimensionless"                 # the DEM uses d = rho_p = gammadot = 1
 restitution_column = "restitution_e"    # inputs per group, not fitted
 friction_column = "contact_friction_mu"
 '''
-    return s
+    return s.replace("HELD", held if "J" in opts else "")
 
 
 if __name__ == "__main__":

@@ -122,7 +122,7 @@ namespace {
 // Fits the job restricted to `keep` (experiments by index); free parameters none of them depends
 // on (the misfit does not move between their bounds) stay at their start values.
 CrossValidationRow fit_subset(const CalibrationJob& job, const std::vector<std::size_t>& keep, unsigned threads,
-                              std::vector<std::string>& held) {
+                              std::vector<std::string>& held, const std::vector<std::string>& hold = {}) {
   CalibrationJob sub = job;
   sub.experiments.clear();
   for (std::size_t i : keep) sub.experiments.push_back(job.experiments[i]);
@@ -133,6 +133,10 @@ CrossValidationRow fit_subset(const CalibrationJob& job, const std::vector<std::
     const double f0 = probe.misfit(s);
     std::vector<FreeParameter> free;
     for (std::size_t k = 0; k < sub.free.size(); ++k) {
+      if (std::find(hold.begin(), hold.end(), sub.free[k].key) != hold.end()) {
+        held.push_back(sub.free[k].key);
+        continue;
+      }
       bool moves = false;
       for (double v : {sub.free[k].lower, sub.free[k].upper}) {
         std::vector<double> t = s;
@@ -226,7 +230,10 @@ FlowCurveReport flow_curve_report(const CalibrationJob& job, const io::Parameter
         for (std::size_t i = 0; i < n; ++i)
           if (job.experiments[i]->data_friction() == f) keep.push_back(i);
         std::vector<std::string> held;
-        CrossValidationRow row = fit_subset(job, keep, threads, held);
+        std::vector<std::string> hold;
+        for (const auto& [mu, keys] : cv.friction_held)
+          if (mu == f) hold = keys;
+        CrossValidationRow row = fit_subset(job, keep, threads, held, hold);
         std::ostringstream os;
         os << "fit on mu_p = " << f;
         if (!held.empty()) {
@@ -361,11 +368,14 @@ void write_flow_curve_report(const FlowCurveReport& r, const std::string& dir, b
   }
   if (!plot) return;
   const std::string script = std::string(GRANFLOW_SOURCE_DIR) + "/scripts/plot_flow_curves.py";
-  if (std::system("python3 -c 'import matplotlib' >/dev/null 2>&1") != 0 || !fs::exists(script)) {
+  std::string py;
+  for (const char* cand : {"python3", "/usr/bin/python3"})
+    if (py.empty() && std::system((std::string(cand) + " -c 'import matplotlib' >/dev/null 2>&1").c_str()) == 0) py = cand;
+  if (py.empty() || !fs::exists(script)) {
     std::cerr << "calibrate: flow-curve PNGs skipped (no python3 with matplotlib or no " << script << ")\n";
     return;
   }
-  const std::string cmd = "python3 '" + script + "' '" + dir + "' > /dev/null 2>&1";
+  const std::string cmd = py + " '" + script + "' '" + dir + "' > /dev/null 2>&1";
   if (std::system(cmd.c_str()) != 0) std::cerr << "calibrate: the flow-curve plot script failed; flow_points.csv holds the curves\n";
 }
 

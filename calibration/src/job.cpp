@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <limits>
 #include <set>
@@ -258,8 +259,23 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
       cv->fail("bands", "expected at least two increasing band edges");
     c.leave_one_group = cv->boolean_or("leave_one_group", true);
     c.leave_one_friction = cv->boolean_or("leave_one_friction", true);
+    if (auto h = cv->optional_table("friction_held")) {  // "0.5" = ["collisional.V_sd", ...]
+      for (const auto& [k, node] : h->raw()) {
+        const std::string key(k.str());
+        char* end = nullptr;
+        const double mu = std::strtod(key.c_str(), &end);
+        if (key.empty() || *end != '\0' || !(mu >= 0)) h->fail(key, "expected a friction level such as \"0.5\"");
+        c.friction_held.emplace_back(mu, h->strings(key));
+      }
+      h->finish();
+    }
     cv->finish();
   }
+
+  for (const auto& [mu, keys] : job.cross_validation.friction_held)
+    for (const auto& k : keys)
+      if (std::none_of(job.free.begin(), job.free.end(), [&](const FreeParameter& p) { return p.key == k; }))
+        throw io::InputError(io::where(path) + "cross_validation.friction_held: '" + k + "' is not a [[free]] key of the job");
 
   auto exps = root.array_of_tables("experiments");
   if (exps.empty()) root.fail("experiments", "a job needs at least one [[experiments]] entry");

@@ -46,6 +46,7 @@ const std::map<std::string, Accessor>& accessors() {
       {"collisional.V_m", GF_COLLISIONAL(V_m)},
       {"collisional.eps_n", GF_COLLISIONAL(eps_n)},
       {"collisional.mu_p", GF_COLLISIONAL(mu_p)},
+      {"collisional.restitution.friction_factor", GF_COLLISIONAL(k_mu)},
       {"collisional.jamming.V_sd_inf", GF_COLLISIONAL(V_sd_inf)},
       {"collisional.jamming.mu_star", GF_COLLISIONAL(mu_star)},
       {"collisional.correlation_length.c", GF_COLLISIONAL(corr_c)},

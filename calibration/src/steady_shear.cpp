@@ -39,7 +39,7 @@ class SteadyShearExperiment : public Experiment {
     if (eps_n >= 0) c.eps_n = eps_n;
     if (mu_p >= 0) c.mu_p = mu_p;
     // a fit may try constants a parameter file would refuse (V_m >= V_sd(mu_p), V_sd_inf > V_sd)
-    if (!(c.V_m < jamming_fraction(c)) || (c.jamming_friction && !(c.V_m < c.V_sd_inf && c.V_sd_inf <= c.V_sd))) {
+    if (!(c.V_m < jamming_fraction(c)) || !(effective_restitution(c) > -1) || (c.jamming_friction && !(c.V_m < c.V_sd_inf && c.V_sd_inf <= c.V_sd))) {
       out.ok = false;
       out.error = "V_m must lie below V_sd(mu_p), and V_sd_inf below V_sd";
       return out;

@@ -43,9 +43,10 @@ FrictionalParams<double> read_frictional(TomlTable& t) {
 // Absent: MODEL.md's model.
 void read_collisional_options(TomlTable& t, CollisionalParams<double>& c) {
   if (auto r = t.optional_table("restitution")) {
-    c.restitution = r->choice("use", {"everywhere", "dissipation_only"}, "") == "dissipation_only"
+    c.restitution = r->choice("use", {"everywhere", "dissipation_only"}, "everywhere") == "dissipation_only"
                         ? RestitutionUse::DissipationOnly
                         : RestitutionUse::Everywhere;
+    c.k_mu = r->number_or("friction_factor", c.k_mu, Bounds::non_negative());
     r->finish();
   }
   if (auto j = t.optional_table("jamming")) {
@@ -94,13 +95,13 @@ CollisionalParams<double> read_collisional(TomlTable& t) {
   if (!(c.V_m < c.V_sd)) t.fail("V_m", "must be below V_sd = " + std::to_string(c.V_sd));
   c.eps_n = t.number("eps_n", Bounds::closed(0.0, 1.0));
   c.mu_p = t.number("mu_p", Bounds::non_negative());
+  read_collisional_options(t, c);
   const double alpha = effective_restitution(c);
   if (!(alpha > -1.0 && alpha <= 1.0)) {
     std::ostringstream os;
-    os << "effective restitution eps_n - 1.5 mu_p exp(-3 mu_p) = " << alpha << " must lie in (-1, 1]";
+    os << "effective restitution eps_n - " << c.k_mu << " mu_p exp(-3 mu_p) = " << alpha << " must lie in (-1, 1]";
     t.fail("mu_p", os.str());
   }
-  read_collisional_options(t, c);
   t.finish();
   return c;
 }
@@ -281,7 +282,11 @@ std::string format_parameter_set(const ParameterSet& s) {
     os << "\n[collisional]\nrho_p = " << c.rho_p << "\nd = " << c.d << "\nV_sd = " << c.V_sd << "\nV_m = " << c.V_m
        << "\neps_n = " << c.eps_n << "\nmu_p = " << c.mu_p << "\n";
     // options: written only where set, so a set without them reads back (and hashes) as before
-    if (c.restitution == RestitutionUse::DissipationOnly) os << "\n[collisional.restitution]\nuse = \"dissipation_only\"\n";
+    if (c.restitution == RestitutionUse::DissipationOnly || c.k_mu != 1.5) {
+      os << "\n[collisional.restitution]\nuse = \""
+         << (c.restitution == RestitutionUse::DissipationOnly ? "dissipation_only" : "everywhere") << "\"\n";
+      if (c.k_mu != 1.5) os << "friction_factor = " << c.k_mu << "\n";
+    }
     if (c.jamming_friction)
       os << "\n[collisional.jamming]\nmodel = \"friction\"\nV_sd_inf = " << c.V_sd_inf << "\nmu_star = " << c.mu_star
          << "\n";

@@ -82,6 +82,9 @@ struct CrossValidationSpec {
   std::vector<std::pair<double, double>> windows;  // solid-fraction windows [lo, hi) of the scores
   std::vector<double> bands;                       // band edges of the "which range" breakdown
   bool leave_one_group = true, leave_one_friction = true;
+  // Per friction level: free keys held at their start values in the fit on that level alone
+  // (constants one level cannot determine, such as V_sd(0) from mu_p = 0.5 data).
+  std::vector<std::pair<double, std::vector<std::string>>> friction_held;
 };
 
 struct CalibrationJob {

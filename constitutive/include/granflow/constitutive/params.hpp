@@ -47,6 +47,7 @@ struct CollisionalParams {
   // Where the effective restitution enters: a runtime choice; the models' template argument R
   // may also select DissipationOnly at compile time (either one selects it).
   RestitutionUse restitution = RestitutionUse::Everywhere;
+  S k_mu = S(1.5);  // friction factor of Eq. (24): alpha = eps_n - k_mu mu_p exp(-3 mu_p)
   // Jamming fraction falling with particle friction: V_sd(mu_p) = V_sd_inf + (V_sd - V_sd_inf)
   // exp(-mu_p / mu_star); V_sd is then the frictionless value. Off: V_sd for every mu_p.
   bool jamming_friction = false;
@@ -91,7 +92,7 @@ GF_HDI CollisionalParams<T> params_cast(const CollisionalParams<S>& p) {
   CollisionalParams<T> o;
   o.rho_p = T(p.rho_p); o.d = T(p.d); o.V_sd = T(p.V_sd); o.V_m = T(p.V_m); o.eps_n = T(p.eps_n);
   o.mu_p = T(p.mu_p); o.vs_gap = T(p.vs_gap);
-  o.restitution = p.restitution; o.jamming_friction = p.jamming_friction;
+  o.restitution = p.restitution; o.k_mu = T(p.k_mu); o.jamming_friction = p.jamming_friction;
   o.V_sd_inf = T(p.V_sd_inf); o.mu_star = T(p.mu_star); o.corr_c = T(p.corr_c);
   o.dilute_usf = p.dilute_usf;
   return o;
@@ -108,10 +109,10 @@ GF_HDI S stress_ratio_of_angle(S sin_phi) {
   return S(6) * sin_phi / (S(3) - sin_phi);
 }
 
-// Effective restitution, Eq. (24) (Chialvo & Sundaresan 2013).
+// Effective restitution, Eq. (24) (Chialvo & Sundaresan 2013); k_mu = 1.5 there.
 template <class S>
 GF_HDI S effective_restitution(const CollisionalParams<S>& c) {
-  return c.eps_n - S(1.5) * c.mu_p * std::exp(S(-3) * c.mu_p);
+  return c.eps_n - c.k_mu * c.mu_p * std::exp(S(-3) * c.mu_p);
 }
 
 // Solid fraction at which g0 diverges, Eqs. (25)-(26): V_sd, or with jamming_friction the
