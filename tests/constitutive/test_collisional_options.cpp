@@ -85,8 +85,6 @@ TEST(CollisionalOptions, JammingFractionFallsWithFrictionAndMovesTheDivergence) 
     EXPECT_NEAR(v, 0.585 + 0.055 * std::exp(-mu / 0.1), 1e-15);
     last = v;
     const double gap = 1e-6;
-    const auto kc = kinetic_coefficients(c, v - 2 * gap);  // inside V_sd - vs_gap only with a small gap
-    (void)kc;
     EXPECT_NEAR(radial_distribution(v - gap, c.V_m, v) * gap, 2.0, 1e-4);
   }
   EXPECT_NEAR(last, 0.585, 1e-15);
