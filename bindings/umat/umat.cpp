@@ -91,11 +91,18 @@ Material read_props(const double* props, int nprops) {
   try {
     set = io::parse_parameter_set_text(t.str(), "PROPS");
   } catch (const io::InputError& e) {
-    // "PROPS:5: ..." -> "PROPS(5) ...": the line is the index.
+    // "PROPS:5:24: 'frictional.phi_c_deg': ..." -> "PROPS(5) 'frictional.phi_c_deg': ...": the line is the index.
     std::string msg = e.what();
     if (msg.rfind("PROPS:", 0) == 0) {
-      const std::size_t colon = msg.find(':', 6);
-      if (colon != std::string::npos) msg = "PROPS(" + msg.substr(6, colon - 6) + ")" + msg.substr(colon);
+      const std::size_t line_end = msg.find(':', 6);
+      if (line_end != std::string::npos) {
+        std::size_t rest = line_end;
+        const std::size_t col_end = msg.find(':', line_end + 1);
+        if (col_end != std::string::npos && col_end > line_end + 1 &&
+            msg.find_first_not_of("0123456789", line_end + 1) == col_end)
+          rest = col_end;  // drop the column
+        msg = "PROPS(" + msg.substr(6, line_end - 6) + ")" + msg.substr(rest + 1);
+      }
     }
     throw Rejected{msg};
   }
@@ -108,10 +115,12 @@ Material read_props(const double* props, int nprops) {
     mat.T0 = props[20];
     if (!(mat.T0 >= 0)) throw Rejected{"PROPS(21) T0 = " + fmt(mat.T0) + ": must be >= 0"};
   }
+  set.file.clear();  // messages name PROPS(14), not a file
   try {
     io::check_initial_void_ratio(set, mat.e0, "PROPS(14) e0");
   } catch (const io::InputError& e) {
-    throw Rejected{e.what()};
+    const std::string m = e.what();
+    throw Rejected{m.rfind(": ", 0) == 0 ? m.substr(2) : m};
   }
   return mat;
 }
@@ -198,12 +207,12 @@ PointOut increment(const Material& mat, const PointIn& in, const M3& deps, doubl
 }
 
 void report(const std::string& where, const std::string& message) {
-  t_error = message;
+  t_error = where + ": " + message;
   // Each distinct message once per process: a bad PROPS reaches every point of a mesh.
   static std::mutex mu;
   static std::set<std::string> said;
   std::lock_guard<std::mutex> lock(mu);
-  if (said.insert(message).second) std::fprintf(stderr, "granflow umat (%s): %s\n", where.c_str(), message.c_str());
+  if (said.insert(message).second) std::fprintf(stderr, "granflow umat: %s\n", t_error.c_str());
 }
 
 }  // namespace

@@ -28,7 +28,8 @@ void umat_(double* stress, double* statev, double* ddsdde, double* sse, double* 
            const double* dfgrd1, const int* noel, const int* npt, const int* layer, const int* kspt,
            const int* jstep, const int* kinc, size_t cmname_len);
 
-/* The message of this thread's last rejected call ("" if none since the last accepted one). */
+/* The message of this thread's last rejected call, "material M, element E, point P: ..." ("" after
+ * an accepted one). The first time a message occurs it is also written to stderr. */
 const char* granflow_umat_last_error(void);
 
 #ifdef __cplusplus
