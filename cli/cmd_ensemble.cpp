@@ -89,7 +89,10 @@ mpm::SceneSetup member_setup(const EnsembleCmd& o, const mpm::EnsembleDesign& d,
 void check_memory(const EnsembleCmd& o, const mpm::EnsembleDesign& d, const mpm::SceneSetup& first, int devices) {
   const mpm::MemoryEstimate m = mpm::estimate_memory(first);
   const bool gpu = o.backend == "cuda";
-  const double per = gpu ? m.device_bytes() : m.device_bytes() + 2 * m.host_bytes;
+  // plus the buffer of the samples' snapshots (x, v and T: Runner::snapshot)
+  const int snap_fields = 2 * first.scene.dim + (first.scene.material.model == mpm::ModelKind::PhaseTransition);
+  const double snap = double(first.particles.n) * snap_fields * m.scalar_bytes;
+  const double per = gpu ? m.device_bytes() + snap : m.device_bytes() + 2 * m.host_bytes;
   const double need = per * double(d.members), have = available_bytes(o.backend) * (gpu ? devices : 1);
   if (!(have > 0) || need <= 0.9 * have) return;
   char buf[320];
@@ -223,6 +226,9 @@ void run_ensemble_cmd(const EnsembleCmd& o) {
   std::printf("device: %s\ngrid nodes: %ld\n", device.c_str(), nodes);
   std::printf("particle-updates/s: %.4g\nwall per step: %.2f us\n", s.wall_s > 0 ? updates / s.wall_s : 0.0,
               s.steps > 0 ? 1e6 * s.wall_s / s.steps : 0.0);
+  if (s.times.span_steps > 0)  // CUDA: kernel time of the spans (first device), the rest is the host's
+    std::printf("device time of spans: %.3f s (%.2f us per step)\n", s.times.device,
+                1e6 * s.times.device / s.times.span_steps);
   for (size_t k = 0; k < s.members.size(); ++k)
     if (!s.members[k].ok) std::printf("member %zu failed: %s\n", k, s.members[k].message.c_str());
   std::printf("output: %s (summary.csv, member_NNNN/{runout,tracked,profile_final}.csv)\n", out.c_str());

@@ -19,14 +19,17 @@
 #   perf           granflow bench mpm of the CUDA options on the 1 mm column and the 5 mm flume,
 #                  the precisions, the split G2P; the full 1 mm column and its first 0.35 s timed
 #   profile        Nsight Compute of the 1 mm column's kernels (needs ncu)
+#   profile-ensemble  Nsight Compute of the 64-member 5 mm column's step kernels in the collapse
 #   sanitize       compute-sanitizer memcheck and racecheck of the CI scenes and CUDA option variants
 #   3d             the 3D slab (8e6 points) benchmark: precisions and CUDA options
 #   ensemble       granflow ensemble against sequential single runs of the same members: 64
 #                  members of the 5 mm column (fp32, fp64), 16 of the 1 mm column (fp32)
 #   study          the flume parameter study (mpm/scenes/ensembles/flume_study.toml, 64 members,
 #                  lifting gate, 0.8 s of flow, CFL step), summary in study_summary.csv
-#   ensemble-batched  the batched runs of the ensemble part only
+#   ensemble-batched  the batched runs of the ensemble part only, the 5 mm one also sampled
+#                  sparsely (ENS_1MM=0: without the 1 mm ensemble)
 #   ensemble-diag  the 64-member column sampled sparsely; a 1 mm member alone, twice
+#   ensemble-options  the 64-member 5 mm column under the CUDA options (split G2P, sort, blocks)
 #   calibrate      data/calibration/bui_column.toml (5 mm), then the 1 mm column with the fitted set
 #   flow           the collisional options of issue 25 (data/params/column_collapse_flow.toml) on the
 #                  1 mm column against MODEL.md's model: cost per step (benchmarks) and the whole
@@ -352,12 +355,31 @@ part_ensemble() {
 
 # The flume study: the front at 0.4 and 0.8 s against phi_c, e0, the base friction and the
 # gate's lift speed (docs/mpm_ensembles.md). The gate moves to the release stage (flume_study.toml).
+# Capped at STUDY_CAP seconds (SIGTERM: the summary holds what was reached); progress kept.
 part_study() {
- ens flume_study "${STUDY_CAP:-560}" "$FLU" "$SC/ensembles/flume_study.toml" --set 'stage[1].gate.point=[0.35355, 1.27279]' \
+  x "${STUDY_CAP:-300}" "$R/flume_study.txt" "$G" ensemble "$FLU" "$SC/ensembles/flume_study.toml" --backend "$BACKEND" \
+    --out "$R/flume_study" --force --no-png --set 'stage[1].gate.point=[0.35355, 1.27279]' \
     --set 'stage[1].gate.normal=[1.0, 0.0]' --set 'stage[1].duration=0.8' --set 'output.times=[0.4, 0.8]' \
     --set time.adaptive=true --set time.dt=1e-4 --precision fp32
+  tail -c 600 "$R/flume_study.txt"
   cp "$R/flume_study/summary.csv" "$RES/study_summary.csv" 2>/dev/null
-  tar czf "$RES/study_profiles.tgz" -C "$R/flume_study" $(cd "$R/flume_study" && ls -d member_*/profile_final.csv) 2>/dev/null
+  tar czf "$RES/study_profiles.tgz" -C "$R/flume_study" $(cd "$R/flume_study" && ls -d member_*/profile_final.csv member_*/runout.csv) 2>/dev/null
+}
+
+# The 64-member 5 mm column (fp32; fp64 with the split off) under the CUDA fast-path options.
+part_ensemble_options() {
+  local o t c="--set grid.h=0.005 --set time.dt=5e-5"
+  for o in "" "--g2p-split off" "--g2p-split on --g2p-regcap on" "--sort 8" "--sort 0 --p2g atomic" "--g2p-block 64" \
+           "--graph-steps 8"; do
+    # shellcheck disable=SC2086
+    t=${o:-default}
+    ens "col5_64_fp32${t// /}" 120 "$COL" "$SC/ensembles/column_bench_64.toml" $c --precision fp32 $o
+  done
+  for o in "" "--g2p-split off"; do
+    # shellcheck disable=SC2086
+    t=${o:-default}
+    ens "col5_64_fp64${t// /}" 120 "$COL" "$SC/ensembles/column_bench_64.toml" $c --precision fp64 $o
+  done
 }
 
 # What the ensemble's time per step is made of: the 64-member 5 mm column sampled every 50 ms
@@ -386,13 +408,19 @@ part_calibrate() {
   cp "$R/bui_start_1mm/profile_final.csv" "$RES/bui_start_1mm_profile.csv"
 }
 
-# The batched rows of the ensemble part only (the sequential runs are those of part_ensemble).
+# The batched rows of the ensemble part only (the sequential runs are those of part_ensemble),
+# with the 5 mm fp32 run sampled every 50 ms beside them (the steps' share); ENS_1MM=0 leaves out
+# the 1 mm ensemble.
 part_ensemble_batched() {
   local p
   for p in fp32 fp64; do
     ens "col5_64_$p" 300 "$COL" "$SC/ensembles/column_bench_64.toml" --set grid.h=0.005 --set time.dt=5e-5 --precision $p
+    grep -h "^device time" "$R/col5_64_$p.txt"
   done
-  ens col1_16_fp32 300 "$COL" "$SC/ensembles/column_bench_16.toml" --precision fp32
+  ens col5_64_fp32_sparse 120 "$COL" "$SC/ensembles/column_bench_64.toml" --set grid.h=0.005 --set time.dt=5e-5 \
+    --set output.series_dt=0.05 --precision fp32
+  grep -h "^device time" "$R/col5_64_fp32_sparse.txt"
+  [ "${ENS_1MM:-1}" = 0 ] || ens col1_16_fp32 300 "$COL" "$SC/ensembles/column_bench_16.toml" --precision fp32
 }
 
 part_profile() {
@@ -405,6 +433,19 @@ part_profile() {
   cp "$R/ncu_column.txt" "$RES/ncu_column.txt"
   grep -E "^  [a-z_]+kernel|Duration|Compute \(SM\) Throughput|Memory Throughput|Registers Per|Achieved Occupancy|Theoretical Occupancy" \
     "$R/ncu_column.txt" | head -40
+}
+
+part_profile_ensemble() {
+  local ncu
+  ncu=$(command -v ncu || ls /usr/local/cuda*/bin/ncu /opt/nvidia/nsight-compute/*/ncu 2>/dev/null | head -1)
+  [ -n "$ncu" ] || { echo "ncu not found: profile skipped" | tee -a "$log"; return 0; }
+  x 300 "$R/ncu_ensemble.txt" "$ncu" --clock-control none -k regex:"p2g_kernel|grid_kernel|g2p" --launch-skip 30000 \
+    --launch-count 4 --section SpeedOfLight --section LaunchStats --section Occupancy --section MemoryWorkloadAnalysis \
+    "$G" ensemble "$COL" "$SC/ensembles/column_bench_64.toml" --set grid.h=0.005 --set time.dt=5e-5 --precision fp32 \
+    --backend "$BACKEND" --out "$R/ens" --force --no-png --quiet
+  cp "$R/ncu_ensemble.txt" "$RES/ncu_ensemble.txt"
+  grep -E "^  [a-z_]+.*kernel|Duration|Compute \(SM\) Throughput|Memory Throughput|Registers Per|Achieved Occupancy|Theoretical Occupancy|Local" \
+    "$R/ncu_ensemble.txt" | head -60
 }
 
 part_sanitize() {
@@ -452,8 +493,8 @@ main() {
   local part fn f t0 status=0
   for part in "$@"; do
     case $part in
-      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | flow) ;;
-      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate flow)" >&2
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options | flow) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options flow)" >&2
          return 2 ;;
     esac
   done

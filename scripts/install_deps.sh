@@ -4,7 +4,9 @@
 set -euo pipefail
 packages=(build-essential cmake libeigen3-dev libsundials-dev libnlopt-cxx-dev libgtest-dev libfccp-dev
           libcli11-dev libtomlplusplus-dev python3 python3-matplotlib
-          clang libclang-rt-dev)  # clang + libFuzzer: scripts/fuzz.sh
+          clang libclang-rt-dev  # clang + libFuzzer: scripts/fuzz.sh
+          gfortran)              # the UMAT's Fortran calling-convention test (tests/umat)
+packages+=(pybind11-dev python3-dev python3-numpy python3-pytest)  # Python module: docs/python.md
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -11,10 +11,6 @@
 
 #include <granflow/io/toml_reader.hpp>
 
-#ifndef GRANFLOW_SOURCE_DATA_DIR
-#define GRANFLOW_SOURCE_DATA_DIR "data"
-#endif
-
 namespace granflow::io {
 
 namespace {
@@ -161,11 +157,6 @@ void check_initial_void_ratio(const ParameterSet& s, double e0, const std::strin
       throw InputError(os.str());
     }
   }
-}
-
-std::string data_directory() {
-  if (const char* env = std::getenv("GRANFLOW_DATA_DIR")) return env;
-  return GRANFLOW_SOURCE_DATA_DIR;
 }
 
 ParameterSet load_parameter_set(const std::string& name_or_path) {

@@ -52,6 +52,8 @@ class CudaRunner final : public Runner {
 
   // cuda_sampling.cuh
   void frame(Frame& out, bool diagnostics, const std::vector<long>& subset) override;
+  void snapshot(const std::vector<long>& subset) override;
+  void collect(Frame& out) override;
 
   void download(HostParticles& out) override { detail::unpack<D, S, kColl>(fetch_all(), n_, out); }
   void upload(const HostParticles& in) override {
@@ -102,6 +104,9 @@ class CudaRunner final : public Runner {
   // cuda_sampling.cuh
   const S* fetch(const FieldList& fl);
   std::vector<S> fetch_all();
+  static FieldList light_fields();
+  void fill_light(const S* h, Frame& out) const;
+  void fill_subset(const std::vector<S>& small, const std::vector<long>& subset, Frame& out) const;
 
   // cuda_runner_impl.cuh
   void load(const HostParticles& hp);
@@ -148,6 +153,17 @@ class CudaRunner final : public Runner {
   long* sub_ids_ = nullptr;
   S* sub_out_ = nullptr;
   long sub_cap_ = 0;
+  int device_ = 0;
+  // snapshot(): its own gather buffers, pinned copies and copy stream (allocated when first used)
+  S* snap_dev_ = nullptr;
+  S* snap_host_ = nullptr;
+  std::vector<long> snap_subset_;
+  long* snap_sub_ids_ = nullptr;
+  S* snap_sub_dev_ = nullptr;
+  S* snap_sub_host_ = nullptr;
+  cudaStream_t copy_stream_ = nullptr;
+  cudaEvent_t snap_ready_ = nullptr, snap_done_ = nullptr;
+  bool snap_pending_ = false;
   std::vector<std::uint8_t*> masks_;
   std::vector<bool> contacts_;  // per stage: the grid kernel with contact_node (cuda_step.cuh)
   std::vector<MV> values_;                 // ensembles: per-member values (host copy)

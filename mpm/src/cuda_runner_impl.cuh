@@ -65,6 +65,7 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const Sce
     while (key_bits_ < 32 && (1ull << key_bits_) < sort_key_bound<D>(sp_.grid.nodes)) ++key_bits_;
   }
 
+  check(cudaGetDevice(&device_), "cudaGetDevice");
   check(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
   const size_t nf = static_cast<size_t>(Lay::N) * n_;
   const long nn = nn_;  // of all members
@@ -128,6 +129,7 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const Sce
 template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
 inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::~CudaRunner() {
   cudaStreamSynchronize(stream_);
+  if (copy_stream_) cudaStreamSynchronize(copy_stream_);
   for (auto& [k, g] : graphs_) cudaGraphExecDestroy(g);
   for (void* p : {static_cast<void*>(part_), static_cast<void*>(alt_), static_cast<void*>(grid_),
                   static_cast<void*>(status_), static_cast<void*>(info_), static_cast<void*>(ids_),
@@ -135,8 +137,16 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::~CudaRunner() {
                   static_cast<void*>(bins_), static_cast<void*>(sort_tmp_), static_cast<void*>(ctl_),
                   static_cast<void*>(sub_ids_), static_cast<void*>(sub_out_), static_cast<void*>(deferred_),
                   static_cast<void*>(n_deferred_), static_cast<void*>(values_dev_), static_cast<void*>(dead_),
-                  static_cast<void*>(member_bad_)})
+                  static_cast<void*>(member_bad_), static_cast<void*>(snap_dev_), static_cast<void*>(snap_sub_ids_),
+                  static_cast<void*>(snap_sub_dev_)})
     cudaFree(p);
+  if (copy_stream_) {
+    cudaStreamDestroy(copy_stream_);
+    cudaEventDestroy(snap_ready_);
+    cudaEventDestroy(snap_done_);
+  }
+  if (snap_host_) cudaFreeHost(snap_host_);
+  if (snap_sub_host_) cudaFreeHost(snap_sub_host_);
   for (auto* a : sort_keys_) cudaFree(a);
   for (auto* a : sort_slots_) cudaFree(a);
   for (auto* m : masks_) cudaFree(m);

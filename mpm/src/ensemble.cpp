@@ -7,6 +7,7 @@
 #include <future>
 #include <limits>
 #include <sstream>
+#include <thread>
 
 #include <granflow/io/output.hpp>
 #include <granflow/mpm/ensemble.hpp>
@@ -61,8 +62,10 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
   const auto wall0 = Clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - wall0).count(); };
 
-  // Samples: a light frame of all members, measured per member on a worker thread while the
-  // next span runs (as run_loop does); settle() before anything reads the rows.
+  // Samples: a snapshot of all members (queued behind the steps; Runner::snapshot), collected
+  // and measured on a worker thread while the next span runs, the members split over a few
+  // threads; settle() before anything reads the rows or takes the next snapshot.
+  const int workers = std::clamp(static_cast<int>(std::thread::hardware_concurrency()) - 1, 1, 8);
   Frame fr;
   double last_sample_t = -1;
   std::future<void> pending;
@@ -72,28 +75,18 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
   auto sample = [&](double t, int stage, long out_index) {
     settle();
     last_sample_t = t;
-    runner.frame(fr, false, tracked);
     std::vector<int> todo;
     for (int k = 0; k < nm; ++k) {
       if (!alive[k]) continue;
       MemberSummary& m = sum.members[k];
       m.series.push_back({t, t - t_release, stage, Measures{}});
-      for (size_t j = 0; j < nt; ++j) {
-        const long i = ms[k].tracked[j] + k * np, n = fr.n;
-        const PointDiagnostics& d = fr.subset[k * nt + j];
-        m.tracks.push_back({t, t - t_release, j, fr.x[i], fr.x[n + i], fr.v[i], fr.v[n + i], d.p, d.q, d.eps_pd, d.T,
-                            d.eta_c, d.K_col});
-      }
       m.t_end = t;
       todo.push_back(k);
     }
+    runner.snapshot(tracked);
     const bool released = stage + 1 >= static_cast<int>(sc.stages.size());
-    // One thread, no OpenMP team: a team made for each new worker thread cost more than the
-    // measures (64 members of the 5 mm column on an H100: 12.5 ms per sample, the GPU idle);
-    // alone the worker takes about 4 ms, hidden behind the next span.
-    pending = std::async(std::launch::async, [&, todo, out_index, released] {
-      for (size_t j = 0; j < todo.size(); ++j) {
-        const int k = todo[j];
+    auto measure_members = [&, out_index, released](const std::vector<int>& ks) {
+      for (const int k : ks) {
         MemberSummary& m = sum.members[k];
         const Frame f = member_frame(fr, k, np);
         const Measures me = measure(f, ms[k], ms[k].particles.m);
@@ -103,6 +96,28 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
         if (out_index >= 0) m.runout_at[out_index] = me.runout;
         m.profile = free_surface(f, ms[k]);
       }
+    };
+    pending = std::async(std::launch::async, [&, todo, t, measure_members] {
+      runner.collect(fr);
+      for (const int k : todo) {
+        MemberSummary& m = sum.members[k];
+        for (size_t j = 0; j < nt; ++j) {
+          const long i = ms[k].tracked[j] + k * np, n = fr.n;
+          const PointDiagnostics& d = fr.subset[k * nt + j];
+          m.tracks.push_back({t, t - t_release, j, fr.x[i], fr.x[n + i], fr.v[i], fr.v[n + i], d.p, d.q, d.eps_pd,
+                              d.T, d.eta_c, d.K_col});
+        }
+      }
+      // Threads of their own, no OpenMP team: a team made for each new worker thread cost more
+      // than the measures (64 members of the 5 mm column on an H100: 12.5 ms a sample).
+      const int nw = std::min<int>(workers, static_cast<int>(todo.size()));
+      std::vector<std::vector<int>> parts(std::max(nw, 1));
+      for (size_t j = 0; j < todo.size(); ++j) parts[j % parts.size()].push_back(todo[j]);
+      std::vector<std::future<void>> done;
+      for (size_t w = 1; w < parts.size(); ++w)
+        done.push_back(std::async(std::launch::async, measure_members, parts[w]));
+      measure_members(parts[0]);
+      for (auto& d : done) d.get();
     });
   };
   auto write_frames = [&](double t, const std::string& tag) {

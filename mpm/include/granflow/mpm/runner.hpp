@@ -161,6 +161,12 @@ class Runner {
   StepResult advance(long nsteps, double dt, bool timing = false);
   // Copies the state to the host; with diagnostics the derived fields of Frame are filled.
   virtual void frame(Frame& out, bool diagnostics, const std::vector<long>& subset = {}) = 0;
+  // A light frame that does not stop the stream (ensemble samples): snapshot() queues its copy
+  // behind the steps already queued and returns; collect() waits for that copy and fills `out`.
+  // collect() may run on another thread while later spans run; one snapshot is pending at a
+  // time. The default (CPU twin) copies at once.
+  virtual void snapshot(const std::vector<long>& subset) { frame(snapshot_, false, subset); }
+  virtual void collect(Frame& out) { out = std::move(snapshot_); }
   virtual void download(HostParticles& out) = 0;
   // Replaces the particle state (a checkpoint); same count and dimension as the set-up.
   virtual void upload(const HostParticles& in) = 0;
@@ -177,6 +183,9 @@ class Runner {
   // with its first bad particle. They are retired: skipped by every later step, their state
   // left as the failed step made it. The other members' last step is complete.
   virtual std::vector<MemberFailure> retire_failed_members() { return {}; }
+
+ private:
+  Frame snapshot_;  // the default snapshot()
 };
 
 inline SpanResult Runner::advance_span(const Span& s) {

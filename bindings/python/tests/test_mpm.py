@@ -1,0 +1,92 @@
+"""MPM runs on the CPU twin (and CUDA where present): series, tracked points, final surface and
+particles as arrays, equal to what the CLI writes for the same scene and overrides."""
+import numpy as np
+import pytest
+
+import granflow
+from conftest import error_text, read_csv
+
+SCENE = "mpm/scenes/column_collapse_ci.toml"
+# A coarse grid and 0.02 s of collapse after the consolidation: 128 points, 1200 steps.
+SETS = ["grid.h=0.025", "time.dt=1e-4"]
+STOP = 0.12
+
+
+@pytest.fixture(scope="module")
+def cli_run(cli, tmp_path_factory):
+    out = tmp_path_factory.mktemp("mpm") / "cc"
+    args = ["mpm", SCENE, "--out", out, "--no-png", "--quiet", "--stop-after", STOP]
+    for s in SETS:
+        args += ["--set", s]
+    proc = cli(*args)
+    assert proc.returncode == 0, proc.stderr
+    return out
+
+
+@pytest.fixture(scope="module")
+def run():
+    return granflow.mpm(SCENE, overrides=SETS, stop_after=STOP)
+
+
+def test_series_and_tracks_match_the_cli_csvs(cli_run, run):
+    for name, key in (("runout.csv", "series"), ("tracked.csv", "tracked"), ("profile_final.csv", "surface")):
+        ref = read_csv(cli_run / name)
+        got = run[key]
+        assert list(got) == list(ref), name  # the CSV's columns, in order
+        for col, values in ref.items():
+            if values.dtype.kind == "U":
+                assert got[col].tolist() == values.tolist(), (name, col)
+            else:  # the CSVs hold 8 significant digits (half a unit: <= 5e-8)
+                np.testing.assert_allclose(got[col], values, rtol=1e-7, atol=1e-20, err_msg=f"{name}:{col}")
+    assert run["series"]["t"][-1] == pytest.approx(STOP)
+    assert run["t_end"] == pytest.approx(STOP) and run["steps"] == 1200
+
+
+def test_final_particles(run):
+    p = run["particles"]
+    n = run["particles_count"]
+    assert n == 128 and p["x"].shape == p["v"].shape == (n, 2)
+    for k in ("p", "q", "eps_pd", "T", "eta_c", "K_col", "e", "sxx", "syy", "sxy", "m"):
+        assert p[k].shape == (n,), k
+        assert np.isfinite(p[k]).all(), k
+    # the highest particle lies at the free surface the run reports
+    assert p["x"][:, 1].max() <= run["surface"]["surface_y"].max() + 1e-12
+    assert run["final"]["runout"] == pytest.approx(run["series"]["runout"][-1])
+    assert (p["x"][:, 0] >= 0).all() and (p["m"] > 0).all()
+
+
+def test_parameter_override_changes_the_run(run):
+    other = granflow.mpm(SCENE, overrides=SETS + ["frictional.phi_c_deg=20"], stop_after=STOP)
+    assert not np.array_equal(other["particles"]["x"], run["particles"]["x"])
+
+
+def test_bad_override_gives_the_cli_message(cli):
+    with pytest.raises(granflow.InputError) as e:
+        granflow.mpm(SCENE, overrides=["grid.h=0.02"])
+    assert str(e.value) == error_text(cli("mpm", SCENE, "--set", "grid.h=0.02", "--no-png"))
+    assert "whole number of cells" in str(e.value)
+
+
+def test_cuda_backend():
+    if granflow.cuda_available():
+        r = granflow.mpm(SCENE, overrides=SETS, stop_after=STOP, backend="cuda")
+        assert r["particles"]["x"].shape == (128, 2) and "CPU" not in r["device"]
+    else:
+        with pytest.raises(RuntimeError, match="without CUDA|no CUDA|device"):
+            granflow.mpm(SCENE, overrides=SETS, stop_after=STOP, backend="cuda")
+    with pytest.raises(granflow.InputError, match="backend 'gpu'"):
+        granflow.mpm(SCENE, backend="gpu")
+
+
+def test_ctrl_c_stops_a_run_and_restores_pythons_handler():
+    import os
+    import signal
+    import threading
+    import time
+    timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    t0 = time.time()
+    with pytest.raises(KeyboardInterrupt):
+        granflow.mpm(SCENE)  # about a minute to the end
+    assert time.time() - t0 < 10
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
