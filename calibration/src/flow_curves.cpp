@@ -17,6 +17,7 @@
 #include "granflow/calibration/fit.hpp"
 #include "granflow/calibration/parameters.hpp"
 #include <granflow/io/input_error.hpp>
+#include <granflow/io/share.hpp>
 
 namespace granflow::calibration {
 
@@ -367,12 +368,11 @@ void write_flow_curve_report(const FlowCurveReport& r, const std::string& dir, b
     f << format_flow_curve_report(r);
   }
   if (!plot) return;
-  const std::string script = std::string(GRANFLOW_SOURCE_DIR) + "/scripts/plot_flow_curves.py";
-  std::string py;
-  for (const char* cand : {"python3", "/usr/bin/python3"})
-    if (py.empty() && std::system((std::string(cand) + " -c 'import matplotlib' >/dev/null 2>&1").c_str()) == 0) py = cand;
-  if (py.empty() || !fs::exists(script)) {
-    std::cerr << "calibrate: flow-curve PNGs skipped (no python3 with matplotlib or no " << script << ")\n";
+  const std::string script = io::script_path("plot_flow_curves.py");
+  const std::string py = python_with_matplotlib();
+  if (py.empty() || script.empty()) {
+    std::cerr << "calibrate: flow-curve PNGs skipped ("
+              << (py.empty() ? "no python3 with matplotlib" : "scripts/plot_flow_curves.py not found") << ")\n";
     return;
   }
   const std::string cmd = py + " '" + script + "' '" + dir + "' > /dev/null 2>&1";

@@ -76,6 +76,8 @@ std::string fitted_toml(const CalibrationJob& job, const FitResult& r) {
   return text;
 }
 
+}  // namespace
+
 std::string python_with_matplotlib() {
   for (const char* cand : {"python3", "/usr/bin/python3"}) {
     const std::string cmd = std::string(cand) + " -c 'import matplotlib' >/dev/null 2>&1";
@@ -83,8 +85,6 @@ std::string python_with_matplotlib() {
   }
   return "";
 }
-
-}  // namespace
 
 std::string format_report(const Objective& obj, const FitResult& r) {
   const CalibrationJob& job = obj.job();
