@@ -9,6 +9,7 @@
 
 #include <granflow/calibration/experiment.hpp>
 #include <granflow/calibration/fit.hpp>
+#include <granflow/calibration/flow_curves.hpp>
 #include <granflow/calibration/job.hpp>
 #include <granflow/calibration/synthesize.hpp>
 #include <granflow/calibration/test_report.hpp>
@@ -34,6 +35,7 @@ struct CalibrateOptions {
   bool quiet = false;
   bool bench = false;
   bool evaluate = false;
+  bool no_cv = false;
   std::string synthesize;  // truth parameter set
   double noise = 0.02;
   unsigned long seed = 1;
@@ -79,6 +81,13 @@ void run_calibrate(const CalibrateOptions& o) {
     if (!o.quiet) std::cout << format_test_report(tr);
     write_test_report(tr, obj.parameters_at(r.theta), folder.staging(), !o.no_plot);
   }
+  if (job.cross_validation.present) {  // flow curves across groups: scores, LOGO / LOFO tables, PNGs
+    CalibrationJob cvjob = job;
+    if (o.no_cv || o.evaluate) cvjob.cross_validation.leave_one_group = cvjob.cross_validation.leave_one_friction = false;
+    const FlowCurveReport fr = flow_curve_report(cvjob, obj.parameters_at(r.theta), o.threads, !o.quiet);
+    if (!o.quiet) std::cout << "\n" << format_flow_curve_report(fr);
+    write_flow_curve_report(fr, folder.staging(), !o.no_plot);
+  }
   write_outputs(obj, r, folder, !o.no_plot);
   if (!fo.state_file.empty()) {  // the results are in place: nothing to resume
     std::error_code ec;
@@ -90,7 +99,7 @@ void run_calibrate(const CalibrateOptions& o) {
 void run_bench(const CalibrateOptions& o) {
   using namespace calibration;
   const std::string dir = io::data_directory() + "/calibration/";
-  const char* jobs[] = {"dem_collisional_mu0.toml", "dem_collisional_mu05.toml", "frictional_synthetic.toml",
+  const char* jobs[] = {"dem_collisional_mu0.toml", "dem_collisional_mu05.toml", "dem_collisional_joint.toml", "frictional_synthetic.toml",
                         "frictional_synthetic_ensemble.toml", "kfs_fit.toml"};
   std::printf("%-36s %8s %8s %10s %12s %12s %9s\n", "job", "threads", "params", "evals", "misfit0", "misfit", "time[s]");
   for (const char* name : jobs) {
@@ -121,6 +130,8 @@ void register_calibrate(CLI::App& app) {
   cmd->add_flag("--no-plot", o->no_plot, "Do not draw fit.png");
   cmd->add_flag("--quiet", o->quiet, "No progress line, no report on stdout");
   cmd->add_flag("--evaluate", o->evaluate, "Only evaluate the starting set (misfit, RMSE, R2, identifiability); no fit");
+  cmd->add_flag("--no-cross-validation", o->no_cv,
+                "With a [cross_validation] table: scores of the fitted set only, no leave-one-out fits");
   cmd->add_flag("--bench", o->bench,
                 "Time the shipped DEM, synthetic-frictional and measured-sand fits (and the ensemble job) and print the figures");
   cmd->add_option("--synthesize", o->synthesize,

@@ -6,22 +6,15 @@
 #include <string>
 
 #include <granflow/elementtest/paper.hpp>
+#include <granflow/io/share.hpp>
 
 #include "commands.hpp"
-
-#ifndef GRANFLOW_SOURCE_ROOT
-#define GRANFLOW_SOURCE_ROOT "."
-#endif
 
 namespace granflow::cli {
 
 namespace {
 
-std::string plot_script() {
-  namespace fs = std::filesystem;
-  if (fs::exists("scripts/plot_figures.py")) return "scripts/plot_figures.py";
-  return std::string(GRANFLOW_SOURCE_ROOT) + "/scripts/plot_figures.py";
-}
+std::string plot_script() { return io::script_path("plot_figures.py"); }
 
 // The first python3 that has matplotlib (a pyenv shim may shadow the system one).
 std::string python_with_matplotlib() {
@@ -33,6 +26,11 @@ std::string python_with_matplotlib() {
 }
 
 void plot(const std::string& script, const std::string& dir) {
+  if (script.empty()) {
+    std::cerr << "granflow figures: scripts/plot_figures.py not found beside the data ("
+              << io::share_directory() << "): CSVs written, PNGs not made (docs/install.md)\n";
+    return;
+  }
   const std::string py = python_with_matplotlib();
   if (py.empty()) {
     std::cerr << "granflow figures: no python3 with matplotlib found: CSVs written, PNGs not made.\n"

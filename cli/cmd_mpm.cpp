@@ -26,6 +26,7 @@
 #include <granflow/io/output.hpp>
 #include <granflow/io/parameter_set.hpp>
 #include <granflow/io/run_folder.hpp>
+#include <granflow/io/share.hpp>
 #include <granflow/mpm/scene_file.hpp>
 
 namespace granflow::cli {
@@ -91,9 +92,7 @@ std::unique_ptr<mpm::Runner> make_runner(const mpm::SceneSetup& su, const std::s
 }
 
 std::string locate_script(const std::string& name) {
-  for (const std::string& p : {"scripts/" + name, io::data_directory() + "/../scripts/" + name})
-    if (std::filesystem::exists(p)) return p;
-  return "";
+  return io::script_path(name);
 }
 
 volatile std::sig_atomic_t g_signal = 0;

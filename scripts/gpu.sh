@@ -31,6 +31,10 @@
 #   ensemble-diag  the 64-member column sampled sparsely; a 1 mm member alone, twice
 #   ensemble-options  the 64-member 5 mm column under the CUDA options (split G2P, sort, blocks)
 #   calibrate      data/calibration/bui_column.toml (5 mm), then the 1 mm column with the fitted set
+#   flow           the collisional options of issue 25 (data/params/column_collapse_flow.toml) on the
+#                  1 mm column against MODEL.md's model: cost per step (benchmarks) and the whole
+#                  run in fp64 and fp32 (run-out, final surface in the run folders); run check first
+#                  (its last case is host/device agreement with every option on)
 #
 # Results go to $GPU_OUT, else $OUT, else out/gpu: PART.log (each command, printed before it
 # runs, and its output), series.csv, PART_csv.tgz (the runs' CSV outputs); stdout has the
@@ -216,6 +220,18 @@ part_paper() {
   run col1_pt_pic025 150 "$COL" --set solver.pic_speed=0.25
   run col1_pt_flip099 150 "$COL" --set solver.transfer=flip --set solver.pic_speed=0 --set solver.flip=0.99
   run col1_pt_linear 90 "$COL" --set grid.shape=linear --set solver.transfer=flip --stop-after 0.3
+}
+
+part_flow() {
+  echo "== collisional options (issue 25): cost per step, 300 consolidation steps after 20"
+  bench "column 1 mm, MODEL.md's model" 90 "$COL" --steps 300 --warmup 20
+  bench "column 1 mm, options" 90 "$COL" --steps 300 --warmup 20 --params column_collapse_flow
+  bench "column 1 mm, MODEL.md's model, fp32" 90 "$COL" --steps 300 --warmup 20 --precision fp32
+  bench "column 1 mm, options, fp32" 90 "$COL" --steps 300 --warmup 20 --precision fp32 --params column_collapse_flow
+  echo "== 1 mm column, 0.1 s consolidation + 1 s collapse, with the options"
+  run col1_pt 150 "$COL"
+  run col1_pt_flow 150 "$COL" --params column_collapse_flow
+  run col1_pt_flow_fp32 150 "$COL" --params column_collapse_flow --precision fp32
 }
 
 part_series_column() {
@@ -477,8 +493,8 @@ main() {
   local part fn f t0 status=0
   for part in "$@"; do
     case $part in
-      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options) ;;
-      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options)" >&2
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options | flow) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options flow)" >&2
          return 2 ;;
     esac
   done

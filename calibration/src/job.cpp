@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <limits>
 #include <set>
@@ -236,6 +237,46 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
     l->finish();
   }
 
+  if (auto cv = root.optional_table("cross_validation")) {
+    CrossValidationSpec& c = job.cross_validation;
+    c.present = true;
+    if (cv->has("windows_lo") != cv->has("windows_hi"))
+      cv->fail(cv->has("windows_lo") ? "windows_hi" : "windows_lo", "give both windows_lo and windows_hi");
+    if (cv->has("windows_lo")) {
+      const auto lo = cv->numbers("windows_lo", io::Bounds::closed(0.0, 1.0), false);
+      const auto hi = cv->numbers("windows_hi", io::Bounds::closed(0.0, 1.0), false);
+      if (lo.size() != hi.size()) cv->fail("windows_hi", "needs as many values as windows_lo");
+      for (std::size_t i = 0; i < lo.size(); ++i) {
+        if (!(lo[i] < hi[i])) cv->fail("windows_hi", "each window needs lo < hi");
+        c.windows.emplace_back(lo[i], hi[i]);
+      }
+    } else {
+      c.windows = {{0.0, 0.57}};
+    }
+    c.bands = cv->has("bands") ? cv->numbers("bands", io::Bounds::closed(0.0, 1.0), false)
+                               : std::vector<double>{0.0, 0.1, 0.5, 0.57};
+    if (c.bands.size() < 2 || !std::is_sorted(c.bands.begin(), c.bands.end()))
+      cv->fail("bands", "expected at least two increasing band edges");
+    c.leave_one_group = cv->boolean_or("leave_one_group", true);
+    c.leave_one_friction = cv->boolean_or("leave_one_friction", true);
+    if (auto h = cv->optional_table("friction_held")) {  // "0.5" = ["collisional.V_sd", ...]
+      for (const auto& [k, node] : h->raw()) {
+        const std::string key(k.str());
+        char* end = nullptr;
+        const double mu = std::strtod(key.c_str(), &end);
+        if (key.empty() || *end != '\0' || !(mu >= 0)) h->fail(key, "expected a friction level such as \"0.5\"");
+        c.friction_held.emplace_back(mu, h->strings(key));
+      }
+      h->finish();
+    }
+    cv->finish();
+  }
+
+  for (const auto& [mu, keys] : job.cross_validation.friction_held)
+    for (const auto& k : keys)
+      if (std::none_of(job.free.begin(), job.free.end(), [&](const FreeParameter& p) { return p.key == k; }))
+        throw io::InputError(io::where(path) + "cross_validation.friction_held: '" + k + "' is not a [[free]] key of the job");
+
   auto exps = root.array_of_tables("experiments");
   if (exps.empty()) root.fail("experiments", "a job needs at least one [[experiments]] entry");
   std::set<std::string> names;
@@ -273,6 +314,8 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
       }
       for (auto& e : make_steady_shear_experiments(p.name, p.sel, p.ss))
         (p.predict ? job.predictions : job.experiments).push_back(e);
+      job.steady_shear_sources.push_back({p.name, std::make_shared<const DataSelection>(p.sel),
+                                          std::make_shared<const SteadyShearSpec>(p.ss), p.predict});
     }
     t.finish();
   }
@@ -309,7 +352,11 @@ CalibrationJob parse_job(const std::string& path, const SynthesisOptions* synth)
     if (p.key == "collisional.V_sd") vsd_min = p.lower - gap;
     if (p.key == "collisional.e_sd") vsd_min = 1.0 / (1.0 + p.upper) - gap;
   }
+  // With V_sd(mu_p) the limit depends on each group's friction: points beyond it get the failure
+  // penalty instead (the fit moves away from them), so there is no check here.
+  const bool vsd_of_friction = job.start.collisional && job.start.collisional->jamming_friction;
   for (const auto& e : job.experiments) {
+    if (vsd_of_friction) break;
     if (e->kind != "steady_shear" || e->abscissa_quantity != "solid_fraction") continue;
     if (e->x_max() >= vsd_min)
       throw io::InputError(io::where(path) + "experiment '" + e->name + "' has data up to solid fraction " +

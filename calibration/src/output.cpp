@@ -15,11 +15,9 @@
 #include <granflow/io/input_error.hpp>
 #include <granflow/io/output.hpp>
 #include <granflow/io/run_folder.hpp>
+#include <granflow/io/share.hpp>
 #include <granflow/io/toml_reader.hpp>
 
-#ifndef GRANFLOW_SOURCE_DIR
-#define GRANFLOW_SOURCE_DIR "."
-#endif
 
 namespace granflow::calibration {
 
@@ -78,6 +76,8 @@ std::string fitted_toml(const CalibrationJob& job, const FitResult& r) {
   return text;
 }
 
+}  // namespace
+
 std::string python_with_matplotlib() {
   for (const char* cand : {"python3", "/usr/bin/python3"}) {
     const std::string cmd = std::string(cand) + " -c 'import matplotlib' >/dev/null 2>&1";
@@ -85,8 +85,6 @@ std::string python_with_matplotlib() {
   }
   return "";
 }
-
-}  // namespace
 
 std::string format_report(const Objective& obj, const FitResult& r) {
   const CalibrationJob& job = obj.job();
@@ -380,9 +378,10 @@ void write_staged(const Objective& obj, const FitResult& r, io::StagedFolder& fo
 
   if (plot) {
     const std::string py = python_with_matplotlib();
-    const std::string script = std::string(GRANFLOW_SOURCE_DIR) + "/scripts/plot_calibration.py";
-    if (py.empty() || !fs::exists(script)) {
-      std::cerr << "calibrate: fit.png skipped (" << (py.empty() ? "no python3 with matplotlib" : "no " + script)
+    const std::string script = io::script_path("plot_calibration.py");
+    if (py.empty() || script.empty()) {
+      std::cerr << "calibrate: fit.png skipped ("
+                << (py.empty() ? "no python3 with matplotlib" : "scripts/plot_calibration.py not found")
                 << "); curves.csv holds the curves\n";
     } else {
       std::string title = job.name;
@@ -395,8 +394,8 @@ void write_staged(const Objective& obj, const FitResult& r, io::StagedFolder& fo
         fs::remove(tmp / "fit.png", ec);  // whatever it left is not a finished plot
         std::cerr << "calibrate: the plot script failed; curves.csv holds the curves\n";
       }
-      const std::string post = std::string(GRANFLOW_SOURCE_DIR) + "/scripts/plot_posterior.py";
-      if (r.ensemble && std::system((py + " '" + post + "' '" + tmp.string() + "' '" + title + "'").c_str()) != 0) {
+      const std::string post = io::script_path("plot_posterior.py");
+      if (r.ensemble && !post.empty() && std::system((py + " '" + post + "' '" + tmp.string() + "' '" + title + "'").c_str()) != 0) {
         std::error_code ec;
         fs::remove(tmp / "posterior.png", ec);
         fs::remove(tmp / "ensemble_fit.png", ec);

@@ -46,6 +46,10 @@ const std::map<std::string, Accessor>& accessors() {
       {"collisional.V_m", GF_COLLISIONAL(V_m)},
       {"collisional.eps_n", GF_COLLISIONAL(eps_n)},
       {"collisional.mu_p", GF_COLLISIONAL(mu_p)},
+      {"collisional.restitution.friction_factor", GF_COLLISIONAL(k_mu)},
+      {"collisional.jamming.V_sd_inf", GF_COLLISIONAL(V_sd_inf)},
+      {"collisional.jamming.mu_star", GF_COLLISIONAL(mu_star)},
+      {"collisional.correlation_length.c", GF_COLLISIONAL(corr_c)},
   };
   return table;
 }
@@ -84,6 +88,14 @@ bool parameter_addressable(const io::ParameterSet& set, const std::string& key, 
   const bool frictional = key.rfind("frictional.", 0) == 0;
   if (frictional ? !set.has_frictional() : !set.has_collisional()) {
     why = "'" + key + "': the starting parameter set has no [" + (frictional ? "frictional" : "collisional") + "] table";
+    return false;
+  }
+  // an option's constant: only where the start set switches the option on
+  const auto& c = set.collisional;
+  if ((key.rfind("collisional.jamming.", 0) == 0 && !c->jamming_friction) ||
+      (key.rfind("collisional.correlation_length.", 0) == 0 && !(c->corr_c > 0))) {
+    why = "'" + key + "': the starting parameter set has no [" + key.substr(0, key.rfind('.')) +
+          "] option (docs/constitutive.md, \"Options of the collisional part\")";
     return false;
   }
   return true;

@@ -25,6 +25,9 @@ class SteadyShearExperiment : public Experiment {
     return s;
   }
 
+  double data_friction() const override { return mu_p >= 0 ? mu_p : std::numeric_limits<double>::quiet_NaN(); }
+  double data_restitution() const override { return eps_n >= 0 ? eps_n : std::numeric_limits<double>::quiet_NaN(); }
+
   Prediction predict(const io::ParameterSet& set) const override {
     Prediction out;
     if (!set.collisional) {
@@ -35,6 +38,12 @@ class SteadyShearExperiment : public Experiment {
     CollisionalParams<double> c = *set.collisional;
     if (eps_n >= 0) c.eps_n = eps_n;
     if (mu_p >= 0) c.mu_p = mu_p;
+    // a fit may try constants a parameter file would refuse (V_m >= V_sd(mu_p), V_sd_inf > V_sd)
+    if (!(c.V_m < jamming_fraction(c)) || !(effective_restitution(c) > -1) || (c.jamming_friction && !(c.V_m < c.V_sd_inf && c.V_sd_inf <= c.V_sd))) {
+      out.ok = false;
+      out.error = "V_m must lie below V_sd(mu_p), and V_sd_inf below V_sd";
+      return out;
+    }
     const double nan = std::numeric_limits<double>::quiet_NaN();
     for (const auto& curve : curves) {
       std::vector<double> v(curve.x.size(), nan);

@@ -11,6 +11,7 @@
 
 #include "granflow/calibration/experiment.hpp"
 #include <granflow/io/output.hpp>
+#include <granflow/io/share.hpp>
 
 namespace granflow::calibration {
 
@@ -188,15 +189,16 @@ void write_test_report(const TestReport& report, const io::ParameterSet& fitted,
   io::write_file((d / "test_curves.csv").string(), cc.str(), io::Durability::Buffered);
   io::write_file((d / "tests.txt").string(), format_test_report(report), io::Durability::Buffered);
   if (!plot || !fitted.frictional) return;
-  const std::string script = std::string(GRANFLOW_SOURCE_DIR) + "/scripts/plot_sand_tests.py";
+  const std::string script = io::script_path("plot_sand_tests.py");
   std::string py;
   for (const char* cand : {"python3", "/usr/bin/python3"})
     if (std::system((std::string(cand) + " -c 'import matplotlib' >/dev/null 2>&1").c_str()) == 0) {
       py = cand;
       break;
     }
-  if (py.empty() || !fs::exists(script)) {
-    std::cerr << "calibrate: the per-test PNGs skipped (no python3 with matplotlib or no " << script << ")\n";
+  if (py.empty() || script.empty()) {
+    std::cerr << "calibrate: the per-test PNGs skipped ("
+              << (py.empty() ? "no python3 with matplotlib" : "scripts/plot_sand_tests.py not found") << ")\n";
     return;
   }
   const auto& f = *fitted.frictional;

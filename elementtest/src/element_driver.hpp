@@ -154,7 +154,7 @@ class Driver {
     if constexpr (kC) {
       const auto& c = cpar(p_);
       const KineticCoefficients<double> kc = kinetic_coefficients(c, 1.0 / (1.0 + x.e));
-      d.s = sqrt_temperature_rate(temperature_balance(c, kc, D), x.s);
+      d.s = sqrt_temperature_rate(temperature_balance(c, kc, D, x.s), x.s);
     }
     d.gamma = is_shear(test_.path) ? L(0, 1) : D(0, 0) - D(1, 1);
     d.eps_v = -trace(D);

@@ -7,6 +7,41 @@
 
 namespace granflow::elementtest::detail {
 
+namespace {
+
+// SolverSettings::material_update on the model's state (x supplies what the model lacks).
+template <class Model>
+UpdateInfo external_update(const MaterialUpdate& update, const ElementState& x, typename Model::State& st,
+                           const M3& L, double dt, M3& stress) {
+  ElementState xs = x;
+  from_state(xs, st);
+  PointState ps;
+  std::array<double, 9> l{};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      ps.sigma_f[3 * i + j] = xs.sf(i, j);
+      l[3 * i + j] = L(i, j);
+    }
+  ps.eps_pd = xs.eps_pd;
+  ps.e = xs.e;
+  ps.s = xs.s;
+  UpdateInfo inf;
+  inf.flags = update(ps, l, dt);
+  if (!inf.ok()) return inf;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      xs.sf(i, j) = ps.sigma_f[3 * i + j];
+      stress(i, j) = ps.stress[3 * i + j];
+    }
+  xs.eps_pd = ps.eps_pd;
+  xs.e = ps.e;
+  xs.s = ps.s;
+  st = to_state(xs, static_cast<const Model*>(nullptr));
+  return inf;
+}
+
+}  // namespace
+
 // Steps of dt, shortened only to land on outputs and breakpoints.
 template <class Model>
 void Driver<Model>::run_incremental(ElementState& x, const std::vector<Segment>& segs,
@@ -42,6 +77,7 @@ void Driver<Model>::run_incremental(ElementState& x, const std::vector<Segment>&
         trial = st;
         const M3 L = L_of(r, u);
         ++rhs_evals_;
+        if (test_.solver.material_update) return std::make_pair(external_update<Model>(test_.solver.material_update, x, trial, L, h, stress), L);
         return std::make_pair(Model::update(p_, trial, L, h, stress), L);
       };
       decltype(st) trial = st;

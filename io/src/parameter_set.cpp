@@ -1,5 +1,6 @@
 #include <granflow/io/parameter_set.hpp>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -9,10 +10,6 @@
 #include <sstream>
 
 #include <granflow/io/toml_reader.hpp>
-
-#ifndef GRANFLOW_SOURCE_DATA_DIR
-#define GRANFLOW_SOURCE_DATA_DIR "data"
-#endif
 
 namespace granflow::io {
 
@@ -38,6 +35,40 @@ FrictionalParams<double> read_frictional(TomlTable& t) {
   return f;
 }
 
+// Optional sections of [collisional] (docs/constitutive.md, "Options of the collisional part").
+// Absent: MODEL.md's model.
+void read_collisional_options(TomlTable& t, CollisionalParams<double>& c) {
+  if (auto r = t.optional_table("restitution")) {
+    c.restitution = r->choice("use", {"everywhere", "dissipation_only"}, "everywhere") == "dissipation_only"
+                        ? RestitutionUse::DissipationOnly
+                        : RestitutionUse::Everywhere;
+    c.k_mu = r->number_or("friction_factor", c.k_mu, Bounds::non_negative());
+    r->finish();
+  }
+  if (auto j = t.optional_table("jamming")) {
+    const std::string model = j->choice("model", {"constant", "friction"}, "");
+    if (model == "friction") {
+      c.jamming_friction = true;
+      c.V_sd_inf = j->number("V_sd_inf", Bounds::open(0.0, 1.0));
+      if (!(c.V_sd_inf <= c.V_sd))
+        j->fail("V_sd_inf", "must not exceed the frictionless V_sd = " + std::to_string(c.V_sd) +
+                                " ([collisional] V_sd or e_sd with model = 'friction')");
+      if (!(c.V_m < c.V_sd_inf))
+        j->fail("V_sd_inf", "must exceed V_m = " + std::to_string(c.V_m) + " (V_m < V_sd(mu_p) for every mu_p)");
+      c.mu_star = j->number("mu_star", Bounds::positive());
+    }
+    j->finish();
+  }
+  if (auto d = t.optional_table("dilute")) {
+    c.dilute_usf = d->choice("model", {"navier_stokes", "uniform_shear"}, "") == "uniform_shear";
+    d->finish();
+  }
+  if (auto l = t.optional_table("correlation_length")) {
+    c.corr_c = l->number("c", Bounds::positive());
+    l->finish();
+  }
+}
+
 CollisionalParams<double> read_collisional(TomlTable& t) {
   CollisionalParams<double> c;
   c.rho_p = t.number("rho_p", Bounds::positive());
@@ -60,10 +91,11 @@ CollisionalParams<double> read_collisional(TomlTable& t) {
   if (!(c.V_m < c.V_sd)) t.fail("V_m", "must be below V_sd = " + std::to_string(c.V_sd));
   c.eps_n = t.number("eps_n", Bounds::closed(0.0, 1.0));
   c.mu_p = t.number("mu_p", Bounds::non_negative());
+  read_collisional_options(t, c);
   const double alpha = effective_restitution(c);
   if (!(alpha > -1.0 && alpha <= 1.0)) {
     std::ostringstream os;
-    os << "effective restitution eps_n - 1.5 mu_p exp(-3 mu_p) = " << alpha << " must lie in (-1, 1]";
+    os << "effective restitution eps_n - " << c.k_mu << " mu_p exp(-3 mu_p) = " << alpha << " must lie in (-1, 1]";
     t.fail("mu_p", os.str());
   }
   t.finish();
@@ -118,17 +150,13 @@ void check_initial_void_ratio(const ParameterSet& s, double e0, const std::strin
   }
   if (s.collisional) {
     const double Vs = 1.0 / (1.0 + e0);
-    if (!(Vs < s.collisional->V_sd)) {
+    const double V_sd = jamming_fraction(*s.collisional);
+    if (!(Vs < V_sd)) {
       os << where(s.file) << what << ": e0 = " << e0 << " gives V_s = " << Vs << " at or above V_sd = "
-         << s.collisional->V_sd << " (e0 must exceed e_sd = " << 1.0 / s.collisional->V_sd - 1.0 << ")";
+         << V_sd << " (e0 must exceed e_sd = " << 1.0 / V_sd - 1.0 << ")";
       throw InputError(os.str());
     }
   }
-}
-
-std::string data_directory() {
-  if (const char* env = std::getenv("GRANFLOW_DATA_DIR")) return env;
-  return GRANFLOW_SOURCE_DATA_DIR;
 }
 
 ParameterSet load_parameter_set(const std::string& name_or_path) {
@@ -161,7 +189,8 @@ ParameterSet parse_parameter_set_text(const std::string& text, const std::string
 void apply_override(ParameterSet& set, const std::string& assignment, const std::string& origin) {
   const std::string who = origin + " '" + assignment + "': ";
   const auto eq = assignment.find('=');
-  const auto dot = assignment.find('.');
+  // the last dot before '=' ends the section: "collisional.jamming.mu_star=0.3" sets a key of an option table
+  const auto dot = eq == std::string::npos ? std::string::npos : assignment.rfind('.', eq);
   if (eq == std::string::npos || dot == std::string::npos || dot > eq)
     throw InputError(who + "expected section.key=value, e.g. frictional.phi_c_deg=31");
   const std::string section = assignment.substr(0, dot);
@@ -172,7 +201,12 @@ void apply_override(ParameterSet& set, const std::string& assignment, const std:
   toml::table doc;
   try {
     doc = toml::parse(std::string_view(text), std::string_view("<override>"));
-    auto* tbl = doc[section].as_table();
+    toml::table* tbl = &doc;
+    for (std::size_t a = 0; tbl && a <= section.size();) {
+      const std::size_t b = std::min(section.find('.', a), section.size());
+      tbl = (*tbl)[section.substr(a, b - a)].as_table();
+      a = b + 1;
+    }
     if (!tbl) throw InputError(who + "the set has no [" + section + "] table");
     const std::string line = "v = " + value;
     toml::table parsed = toml::parse(std::string_view(line), std::string_view("<override>"));
@@ -238,6 +272,17 @@ std::string format_parameter_set(const ParameterSet& s) {
     const auto& c = *s.collisional;
     os << "\n[collisional]\nrho_p = " << c.rho_p << "\nd = " << c.d << "\nV_sd = " << c.V_sd << "\nV_m = " << c.V_m
        << "\neps_n = " << c.eps_n << "\nmu_p = " << c.mu_p << "\n";
+    // options: written only where set, so a set without them reads back (and hashes) as before
+    if (c.restitution == RestitutionUse::DissipationOnly || c.k_mu != 1.5) {
+      os << "\n[collisional.restitution]\nuse = \""
+         << (c.restitution == RestitutionUse::DissipationOnly ? "dissipation_only" : "everywhere") << "\"\n";
+      if (c.k_mu != 1.5) os << "friction_factor = " << c.k_mu << "\n";
+    }
+    if (c.jamming_friction)
+      os << "\n[collisional.jamming]\nmodel = \"friction\"\nV_sd_inf = " << c.V_sd_inf << "\nmu_star = " << c.mu_star
+         << "\n";
+    if (c.corr_c > 0) os << "\n[collisional.correlation_length]\nc = " << c.corr_c << "\n";
+    if (c.dilute_usf) os << "\n[collisional.dilute]\nmodel = \"uniform_shear\"\n";
   }
   if (!s.e0.empty() || s.T0) {
     os << "\n[initial]\n";

@@ -154,7 +154,7 @@ TEST(Collisional, ClampBelowRandomClosePacking) {
 namespace {
 
 RiccatiCoefficients<double> shear_balance(const CollisionalParams<double>& c, double Vs, double rate) {
-  return temperature_balance(c, kinetic_coefficients(c, Vs), Mat3<double>(sym(test::simple_shear(rate))));
+  return temperature_balance(c, kinetic_coefficients(c, Vs), Mat3<double>(sym(test::simple_shear(rate))), 0.0);
 }
 
 }  // namespace
@@ -185,7 +185,7 @@ TEST(Collisional, HaffCoolingWithoutShear) {
   const auto c = test::table2();
   const double Vs = 0.5;
   const auto kc = kinetic_coefficients(c, Vs);
-  const auto r = temperature_balance(c, kc, Mat3<double>::Zero());
+  const auto r = temperature_balance(c, kc, Mat3<double>::Zero(), 0.0);
   const double b = kc.K_Gamma / (3 * Vs * c.d), s0 = 0.1;
   for (double t : {1e-4, 1e-2, 1.0, 100.0}) EXPECT_NEAR(advance_sqrt_temperature(r, s0, t), s0 / (1 + b * s0 * t), 1e-14);
 }
@@ -196,7 +196,7 @@ TEST(Collisional, FrozenCoefficientUpdateMatchesRK4WithVolumeChange) {
   for (double trD : {-5.0, 3.0}) {
     Mat3<double> D = sym(test::simple_shear(20.0));
     D.diagonal().setConstant(trD / 3);
-    const auto r = temperature_balance(c, kinetic_coefficients(c, 0.5), D);
+    const auto r = temperature_balance(c, kinetic_coefficients(c, 0.5), D, 0.0);
     ASSERT_NE(r.B, 0.0);
     for (double s0 : {0.0, 1e-3, 0.05}) {
       const double T = 0.05;
@@ -221,7 +221,7 @@ TEST(Collisional, TemperatureStaysNonNegativeAndFiniteInStiffCases) {
       for (double trD : {-100.0, 0.0, 100.0}) {
         Mat3<double> D = sym(test::simple_shear(rate));
         D.diagonal().setConstant(trD / 3);
-        const auto r = temperature_balance(c, kinetic_coefficients(c, Vs), D);
+        const auto r = temperature_balance(c, kinetic_coefficients(c, Vs), D, 0.0);
         for (double dt : {1e-9, 1e-7, 1e-5, 1e-3, 1e-1, 1.0}) {
           for (double s0 : {0.0, std::sqrt(1e-15), 1.0}) {
             const double s = advance_sqrt_temperature(r, s0, dt);

@@ -57,9 +57,9 @@ double rel(double a, double b, double scale) { return std::fabs(a - b) / (std::f
 // must agree to 1e-9 and 1e-6. Cases that exhausted a budget or fell back (flagged) may differ in
 // at most 1 % of all cases.
 template <class Model>
-int compare(const char* name, const std::vector<Case>& cases) {
+int compare(const char* name, const std::vector<Case>& cases,
+            const PhaseTransitionParams<double>& p = test::table3_collapse()) {
   const int n = static_cast<int>(cases.size());
-  const auto p = test::table3_collapse();
   Case* d_cases = nullptr;
   Result* d_out = nullptr;
   cudaMalloc(&d_cases, n * sizeof(Case));
@@ -126,5 +126,17 @@ int main() {
   rc |= compare<PTc>("MPM-like increments, circular", mpm_like);
   rc |= compare<PT>("extreme increments, smooth Mohr-Coulomb", extreme);
   rc |= compare<PTc>("extreme increments, circular", extreme);
+  // every option of the collisional part on (issue 25): V_sd(mu_p), dilute uniform shear,
+  // correlation length, restitution in the dissipation only (a runtime branch of the same kernel)
+  auto opt = test::table3_collapse();
+  opt.c.V_sd = 0.646;
+  opt.c.V_m = 0.244;
+  opt.c.jamming_friction = true;
+  opt.c.V_sd_inf = 0.5815;
+  opt.c.mu_star = 0.171;
+  opt.c.dilute_usf = true;
+  opt.c.corr_c = 0.5;
+  opt.c.restitution = RestitutionUse::DissipationOnly;
+  rc |= compare<PT>("MPM-like increments, collisional options", mpm_like, opt);
   return rc;
 }

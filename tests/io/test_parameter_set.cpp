@@ -130,3 +130,54 @@ TEST(ParameterSet, UnknownNameListsTheShippedSets) {
     EXPECT_NE(std::string(e.what()).find("column_collapse"), std::string::npos) << e.what();
   }
 }
+
+// Options of the collisional part (issue 25): optional sections of [collisional]; absent, the set
+// is MODEL.md's model; each written back only where set, and every bad value names its key.
+TEST(ParameterSet, CollisionalOptionsReadWriteAndOverride) {
+  std::string text = kGood;
+  const std::string opts = "mu_p = 0.2\n\n[collisional.jamming]\nmodel = \"friction\"\nV_sd_inf = 0.58\nmu_star = 0.1\n"
+                           "\n[collisional.correlation_length]\nc = 0.5\n\n[collisional.dilute]\nmodel = \"uniform_shear\"\n"
+                           "\n[collisional.restitution]\nuse = \"dissipation_only\"\n";
+  text.replace(text.find("mu_p = 0.2\n"), 11, opts);
+  const auto a = io::load_parameter_set(write_temp("options", text));
+  const auto& c = *a.collisional;
+  EXPECT_TRUE(c.jamming_friction);
+  EXPECT_EQ(c.V_sd_inf, 0.58);
+  EXPECT_EQ(c.mu_star, 0.1);
+  EXPECT_EQ(c.corr_c, 0.5);
+  EXPECT_TRUE(c.dilute_usf);
+  EXPECT_EQ(c.restitution, RestitutionUse::DissipationOnly);
+  const auto b = io::load_parameter_set(write_temp("options_rt", io::format_parameter_set(a)));
+  EXPECT_EQ(io::format_parameter_set(a), io::format_parameter_set(b));
+  // without options nothing of them is written (shipped sets keep their text)
+  const auto plain = io::load_parameter_set(data_dir() + "/params/flume.toml");
+  EXPECT_EQ(io::format_parameter_set(plain).find("[collisional."), std::string::npos);
+  EXPECT_FALSE(plain.collisional->jamming_friction || plain.collisional->dilute_usf || plain.collisional->corr_c > 0);
+  // nested keys through --set
+  auto s = a;
+  io::apply_override(s, "collisional.jamming.mu_star=0.3");
+  EXPECT_EQ(s.collisional->mu_star, 0.3);
+  EXPECT_THROW(io::apply_override(s, "collisional.jamming.V_sd_inf=0.7"), InputError);  // above V_sd = 0.617
+  EXPECT_THROW(io::apply_override(s, "collisional.nothing.c=1"), InputError);
+}
+
+TEST(ParameterSet, CollisionalOptionErrorsNameTheKey) {
+  auto with = [](const std::string& section) { return "mu_p = 0.2\n\n" + section; };
+  expect_error("mu_p = 0.2", with("[collisional.jamming]\nmodel = \"friction\"\nV_sd_inf = 0.7\nmu_star = 0.1\n"),
+               {"collisional.jamming.V_sd_inf", "frictionless V_sd"});
+  expect_error("mu_p = 0.2", with("[collisional.jamming]\nmodel = \"friction\"\nV_sd_inf = 0.35\nmu_star = 0.1\n"),
+               {"collisional.jamming.V_sd_inf", "V_m"});
+  expect_error("mu_p = 0.2", with("[collisional.jamming]\nmodel = \"friction\"\nV_sd_inf = 0.58\n"),
+               {"collisional.jamming.mu_star", "missing"});
+  expect_error("mu_p = 0.2", with("[collisional.jamming]\nmodel = \"linear\"\n"), {"collisional.jamming.model", "'friction'"});
+  expect_error("mu_p = 0.2", with("[collisional.correlation_length]\nc = -1\n"), {"collisional.correlation_length.c", "> 0"});
+  expect_error("mu_p = 0.2", with("[collisional.dilute]\nmodel = \"burnett\"\n"), {"collisional.dilute.model"});
+  expect_error("mu_p = 0.2", with("[collisional.restitution]\nuse = \"both\"\n"), {"collisional.restitution.use"});
+  expect_error("mu_p = 0.2", with("[collisional.dilute]\nmodel = \"uniform_shear\"\nc = 1\n"),
+               {"unknown key 'collisional.dilute.c'"});
+  expect_error("mu_p = 0.2", with("[collisional.jaming]\nmodel = \"friction\"\n"), {"collisional.jaming"});
+  // e0 against the jamming fraction at the set's mu_p: V_sd(0.2) = 0.58 + 0.037 e^-2 = 0.585 < V_s0 = 0.606
+  expect_error("mu_p = 0.2\n\n[initial]\ne0 = 0.95",
+               with("[collisional.jamming]\nmodel = \"friction\"\nV_sd_inf = 0.58\nmu_star = 0.1\n\n[initial]\ne0 = 0.65"),
+               {"V_sd = 0.585", "e0 = 0.65"});
+}

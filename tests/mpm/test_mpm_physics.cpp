@@ -10,6 +10,7 @@
 #endif
 
 #include <granflow/mpm/driver.hpp>
+#include <granflow/mpm/scene_file.hpp>
 
 #include "one_thread.hpp"
 #include "tiny_column.hpp"
@@ -153,4 +154,32 @@ TEST(MpmPhysics, FrictionalColumnRunsAtLeastAsFarAsPhaseTransition) {
   for (const auto& r : pt.series) peak = std::max(peak, r.m.mean_T);
   EXPECT_GT(peak, 1e3 * pt.series.front().m.mean_T);
   EXPECT_LT(pt.series.back().m.mean_T, 0.5 * peak);
+}
+
+// The collisional options of issue 25 through a parameter set (column_collapse_flow: V_sd(mu_p),
+// the dilute uniform-shear correction, restitution in the dissipation only, DEM-fitted V_sd and
+// V_m) on the CI column of the CPU twin: the scene file loads them, the run completes, T rises
+// and decays as with MODEL.md's model, the options change the temperature, and, the collisional
+// stresses being small in this flow, the run-out stays within 2 % of MODEL.md's model's.
+TEST(MpmPhysics, ColumnRunsWithTheCollisionalOptionsOfTheParameterSet) {
+  SceneOverrides o;
+  o.params = "column_collapse_flow";
+  const Scene file = load_scene(std::string(GRANFLOW_SOURCE_DIR) + "/mpm/scenes/column_collapse_ci.toml", o);
+  const CollisionalParams<double>& c = file.material.params.c;
+  ASSERT_TRUE(c.jamming_friction && c.dilute_usf && c.restitution == RestitutionUse::DissipationOnly);
+  Scene sc = tiny_column(ModelKind::PhaseTransition);
+  sc.material.params = file.material.params;
+  const RunSummary opt = run_quiet(make_setup(sc));
+  const RunSummary ref = run_quiet(make_setup(tiny_column(ModelKind::PhaseTransition)));
+  ASSERT_TRUE(opt.ok) << opt.message;
+  ASSERT_TRUE(ref.ok) << ref.message;
+  double peak = 0, peak_ref = 0;
+  for (const auto& r : opt.series) peak = std::max(peak, r.m.mean_T);
+  for (const auto& r : ref.series) peak_ref = std::max(peak_ref, r.m.mean_T);
+  std::printf("tiny column with the options: run-out %.4f m (MODEL.md %.4f m), peak mean T %.3g (%.3g) m^2/s^2\n",
+              opt.final.runout, ref.final.runout, peak, peak_ref);
+  EXPECT_GT(peak, 1e3 * opt.series.front().m.mean_T);
+  EXPECT_LT(opt.series.back().m.mean_T, 0.5 * peak);
+  EXPECT_GT(std::fabs(peak / peak_ref - 1), 0.01);
+  EXPECT_NEAR(opt.final.runout / ref.final.runout, 1.0, 0.02);
 }

@@ -68,6 +68,9 @@ class Experiment {
   virtual double initial_void_ratio() const { return std::numeric_limits<double>::quiet_NaN(); }
   // The element test's loading path as in a test file ("drained_triaxial", ...); "" for other kinds.
   virtual std::string loading_path() const { return ""; }
+  // Particle friction and restitution a steady-shear group takes from its data columns (NaN: none).
+  virtual double data_friction() const { return std::numeric_limits<double>::quiet_NaN(); }
+  virtual double data_restitution() const { return std::numeric_limits<double>::quiet_NaN(); }
   // Highest abscissa value (for the steady-shear V_sd check).
   double x_max() const;
 };

@@ -178,6 +178,8 @@ void write_outputs(const Objective& objective, const FitResult& result, const st
 
 // The text report (also printed by the command); with an ensemble, format_ensemble_report at its end.
 std::string format_report(const Objective& objective, const FitResult& result);
+// "python3" or "/usr/bin/python3", whichever imports matplotlib (plot scripts); "" if neither.
+std::string python_with_matplotlib();
 std::string format_ensemble_report(const Objective& objective, const FitResult& result);
 
 }  // namespace granflow::calibration

@@ -67,6 +67,26 @@ struct LikelihoodSpec {
   double relative_sd = 0.02;
 };
 
+// A steady-shear [[experiments]] entry as read, kept so that its groups can be scored over any
+// solid-fraction window (flow_curves.hpp), not only the fitted range.
+struct SteadyShearSource {
+  std::string name;
+  std::shared_ptr<const void> selection;  // DataSelection (experiment.hpp)
+  std::shared_ptr<const void> spec;       // SteadyShearSpec
+  bool predict = false;
+};
+
+// [cross_validation] of a steady-shear job (docs/calibration.md, "Flow curves across friction").
+struct CrossValidationSpec {
+  bool present = false;
+  std::vector<std::pair<double, double>> windows;  // solid-fraction windows [lo, hi) of the scores
+  std::vector<double> bands;                       // band edges of the "which range" breakdown
+  bool leave_one_group = true, leave_one_friction = true;
+  // Per friction level: free keys held at their start values in the fit on that level alone
+  // (constants one level cannot determine, such as V_sd(0) from mu_p = 0.5 data).
+  std::vector<std::pair<double, std::vector<std::string>>> friction_held;
+};
+
 struct CalibrationJob {
   std::string file;         // the job file
   std::string name;
@@ -80,6 +100,8 @@ struct CalibrationJob {
   EnsembleSpec ensemble;
   LikelihoodSpec likelihood;
   std::string output_name = "fitted";  // stem of the fitted parameter file
+  std::vector<SteadyShearSource> steady_shear_sources;
+  CrossValidationSpec cross_validation;
 };
 
 // Reads and validates a job; loads and checks every data file it names.

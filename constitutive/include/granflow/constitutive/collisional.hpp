@@ -69,6 +69,17 @@ GF_HDI S cooling_coefficient_zetaU(const KineticFunctions<S>& k, S a) {
   return -(S(1) - a) * (k.p_star - S(1)) + S(5) / S(32) * (S(1) - a2) * (S(1) + S(3) / S(64) * cs) * k.g0 * C_D;  // B11
 }
 
+// Dilute uniform shear flow, Grad's moment method (Santos, Garzo & Dufty 2004): with the
+// collision moments -nu (beta Pi_ij + zeta* p delta_ij), the steady state has
+// a*^2 = (3/2) zeta* beta^2 / (beta - zeta*), the Navier-Stokes one (3/2) zeta* (beta - zeta*/2).
+// T scales as 1/a*^2 at a given shear rate: T_Grad / T_NS = (1 - z)(1 - z/2), z = zeta*/beta, and
+// the Navier-Stokes balance gives this T when eta_k* is multiplied by the same factor.
+template <class S>
+GF_HDI S uniform_shear_viscosity_factor(S z) {
+  const S r = (S(1) - z) * (S(1) - S(0.5) * z);
+  return r > S(0) ? r : S(0);
+}
+
 // Everything the collisional stress and the temperature balance need at one solid fraction,
 // in the dimensionless groups of MODEL.md 5.2:
 //   eta_c = rho_p d K_eta s,  kappa_c = rho_p d K_kappa s,  Gamma_0 = rho_p K_Gamma s^3 / d.
@@ -78,34 +89,60 @@ struct KineticCoefficients {
   S g0, Gc;
   S p_star;   // p_c = rho_p V_s p* T
   S K_eta, K_kappa, K_Gamma, zeta_U;
+  S lambda_L;  // correlation length L/d = max(1, lambda_L d gammadot / s); 0: option off (L = d)
   bool clamped;
 };
 
 template <RestitutionUse R = RestitutionUse::Everywhere, class S>
 GF_HDI KineticCoefficients<S> kinetic_coefficients(const CollisionalParams<S>& c, S Vs_in) {
   KineticCoefficients<S> kc;
-  const S Vs_max = c.V_sd - c.vs_gap;
+  const S V_sd = jamming_fraction(c);
+  const S Vs_max = V_sd - c.vs_gap;
   kc.clamped = Vs_in > Vs_max;
   const S Vs = kc.clamped ? Vs_max : (Vs_in > S(0) ? Vs_in : S(0));
   kc.Vs = Vs;
+  const bool diss_only = R == RestitutionUse::DissipationOnly || c.restitution == RestitutionUse::DissipationOnly;
   const S a_diss = effective_restitution(c);
-  const S a_tr = R == RestitutionUse::Everywhere ? a_diss : c.eps_n;
-  const S g0 = radial_distribution(Vs, c.V_m, c.V_sd);
+  const S a_tr = diss_only ? c.eps_n : a_diss;
+  const S g0 = radial_distribution(Vs, c.V_m, V_sd);
   const KineticFunctions<S> kt = kinetic_functions(Vs, g0, a_tr);
   kc.g0 = g0;
   kc.Gc = kt.Gc;
   kc.p_star = kt.p_star;
-  kc.K_eta = S(8) / (S(5) * S(kSqrtPi)) * Vs * kt.Gc * kt.J;
+  S zeta0 = kt.zeta0_star;
   kc.K_kappa = S(4) / (S(3) * S(kSqrtPi)) * Vs * kt.Gc * kt.Q;
-  if constexpr (R == RestitutionUse::Everywhere) {
+  if (!diss_only) {
     kc.K_Gamma = S(144) / (S(5) * S(kSqrtPi)) * Vs * Vs * kt.zeta0_star;
     kc.zeta_U = cooling_coefficient_zetaU(kt, a_diss);
   } else {
     const KineticFunctions<S> kd = kinetic_functions(Vs, g0, a_diss);
+    zeta0 = kd.zeta0_star;
     kc.K_Gamma = S(144) / (S(5) * S(kSqrtPi)) * Vs * Vs * kd.zeta0_star;
     kc.zeta_U = cooling_coefficient_zetaU(kd, a_diss);
   }
+  S J = kt.J;
+  if (c.dilute_usf) {  // eta_k* -> r eta_k* in A4, then A2 (uniform_shear_viscosity_factor)
+    const S eta_star = kt.eta_k_star * uniform_shear_viscosity_factor(zeta0 / kt.nu_eta_star) *
+                           (S(1) + S(0.8) * kt.Gc * (S(1) + a_tr)) +
+                       S(0.6) * kt.kappa_star;
+    J = S(25) * S(kPi) * eta_star / (S(768) * kt.Gc * Vs);
+  }
+  kc.K_eta = S(8) / (S(5) * S(kSqrtPi)) * Vs * kt.Gc * J;
+  // Jenkins (2006, 2007): L/d = max(1, c_L sqrt(2J/(15(1 - alpha^2))) G_c^(1/3) d gammadot / sqrt(T)).
+  const S one_m_a2 = S(1) - a_diss * a_diss;
+  kc.lambda_L = c.corr_c > S(0) && one_m_a2 > S(0)
+                    ? c.corr_c * std::sqrt(S(2) * J / (S(15) * one_m_a2)) * std::cbrt(kt.Gc)
+                    : S(0);
   return kc;
+}
+
+// L/d of the correlation-length option at shear rate gammadot = sqrt(2 D':D') and s = sqrt(T),
+// capped at 1e6 (s -> 0 under shear: no dissipation, s grows as A t); 1 when the option is off.
+template <class S>
+GF_HDI S correlation_length(const KineticCoefficients<S>& kc, S d, S shear_rate, S s) {
+  const S x = kc.lambda_L * d * shear_rate;
+  if (!(x > s)) return S(1);
+  return x < S(1e6) * s ? x / s : S(1e6);
 }
 
 // Pressure and viscosities, Eqs. (20)-(22).
@@ -132,14 +169,18 @@ struct RiccatiCoefficients {
   S A, B, C;
 };
 
+// s: the sqrt(T) at which the correlation length (if on) is evaluated: the current value for an
+// ODE solver's right-hand side, the start of the step for the frozen-coefficient update.
 template <class S>
 GF_HDI RiccatiCoefficients<S> temperature_balance(const CollisionalParams<S>& c, const KineticCoefficients<S>& kc,
-                                                  const Mat3In<S>& D) {
+                                                  const Mat3In<S>& D, S s) {
   const S trD = trace(D);
   const Mat3<S> Dd = dev(D);
-  const S A = c.d * (S(2) * kc.K_eta * ddot(Dd, Dd) + kc.K_kappa * trD * trD) / (S(3) * kc.Vs);
+  const S DdDd = ddot(Dd, Dd);
+  const S A = c.d * (S(2) * kc.K_eta * DdDd + kc.K_kappa * trD * trD) / (S(3) * kc.Vs);
   const S B = S(0.5) * trD * (S(2) / S(3) * kc.p_star + kc.zeta_U);
-  const S C = kc.K_Gamma / (S(3) * kc.Vs * c.d);
+  S C = kc.K_Gamma / (S(3) * kc.Vs * c.d);
+  if (kc.lambda_L > S(0)) C /= correlation_length(kc, c.d, std::sqrt(S(2) * DdDd), s);
   return {A, B, C};
 }
 
@@ -191,10 +232,19 @@ struct SteadyShear {
   S T, p, tau, mu;
 };
 
+// With the correlation length, L/d = lambda_L d gammadot / sqrt(T) and T = (L/d)(K_eta/K_Gamma) d^2
+// gammadot^2 give L/d = max(1, lambda_L^(2/3) (K_Gamma/K_eta)^(1/3)).
 template <class S>
 GF_HDI SteadyShear<S> steady_simple_shear(const CollisionalParams<S>& c, const KineticCoefficients<S>& kc,
                                           S shear_rate) {
   const S d2g2 = c.d * c.d * shear_rate * shear_rate;
+  if (kc.lambda_L > S(0)) {
+    const S l = std::cbrt(kc.lambda_L * kc.lambda_L * kc.K_Gamma / kc.K_eta);
+    const S ell = l > S(1) ? l : S(1);
+    const S ratio = ell * kc.K_eta / kc.K_Gamma;
+    return {ratio * d2g2, c.rho_p * kc.Vs * kc.p_star * ratio * d2g2, c.rho_p * kc.K_eta * std::sqrt(ratio) * d2g2,
+            std::sqrt(kc.K_eta * kc.K_Gamma / ell) / (kc.Vs * kc.p_star)};
+  }
   const S ratio = kc.K_eta / kc.K_Gamma;
   return {ratio * d2g2, c.rho_p * kc.Vs * kc.p_star * ratio * d2g2,
           c.rho_p * kc.K_eta * std::sqrt(ratio) * d2g2, std::sqrt(kc.K_eta * kc.K_Gamma) / (kc.Vs * kc.p_star)};
@@ -223,7 +273,7 @@ GF_HDI UpdateInfo collisional_update(const CollisionalParams<S>& c, CollisionalS
   }
   const KineticCoefficients<S> kc = kinetic_coefficients<R>(c, S(1) / (S(1) + e1));
   if (kc.clamped) inf.flags |= info::kVsClamped;
-  const S s1 = advance_sqrt_temperature(temperature_balance(c, kc, D), st.s, dt);
+  const S s1 = advance_sqrt_temperature(temperature_balance(c, kc, D, st.s), st.s, dt);
   const Mat3<S> sig = collisional_stress(collisional_transport(c, kc, s1), D);
   if (!std::isfinite(s1) || !all_finite(sig)) {
     inf.flags |= info::kNonFinite;

@@ -110,7 +110,7 @@ struct PhaseTransitionModel {
     const Mat3<S> D = sym(grad_v);
     const KineticCoefficients<S> kc = kinetic_coefficients<R>(p.c, S(1) / (S(1) + fs.e));
     if (kc.clamped) inf.flags |= info::kVsClamped;
-    const S s1 = advance_sqrt_temperature(temperature_balance(p.c, kc, D), st.s, dt);
+    const S s1 = advance_sqrt_temperature(temperature_balance(p.c, kc, D, st.s), st.s, dt);
     const Mat3<S> sc = collisional_stress(collisional_transport(p.c, kc, s1), D);
     if (!std::isfinite(s1) || !all_finite(sc)) {
       inf.flags |= info::kNonFinite;

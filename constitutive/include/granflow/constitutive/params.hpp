@@ -41,6 +41,25 @@ struct CollisionalParams {
   S eps_n = 0;  // normal restitution coefficient
   S mu_p = 0;   // particle friction coefficient
   S vs_gap = S(1e-4);  // kinetic functions use V_s <= V_sd - vs_gap (MODEL.md 4.2, A9)
+
+  // Options (docs/constitutive.md, "Options of the collisional part"). The defaults are
+  // MODEL.md's model, computed with the same operations (bit for bit).
+  // Where the effective restitution enters: a runtime choice; the models' template argument R
+  // may also select DissipationOnly at compile time (either one selects it).
+  RestitutionUse restitution = RestitutionUse::Everywhere;
+  S k_mu = S(1.5);  // friction factor of Eq. (24): alpha = eps_n - k_mu mu_p exp(-3 mu_p)
+  // Jamming fraction falling with particle friction: V_sd(mu_p) = V_sd_inf + (V_sd - V_sd_inf)
+  // exp(-mu_p / mu_star); V_sd is then the frictionless value. Off: V_sd for every mu_p.
+  bool jamming_friction = false;
+  S V_sd_inf = 0;  // V_sd(mu_p -> infinity)
+  S mu_star = 0;   // friction scale of the fall
+  // Jenkins' correlation length in the dissipation: L/d = max(1, c_L sqrt(2J/(15(1-alpha^2)))
+  // G_c^(1/3) d gammadot / sqrt(T)). 0: off (L = d).
+  S corr_c = 0;
+  // Dilute uniform-shear correction: the kinetic shear viscosity eta_k* times the factor
+  // r = (1 - z)(1 - z/2), z = zeta0*/nu_eta*, that takes the Navier-Stokes steady simple shear to
+  // the Grad-moment solution of uniform shear flow (Santos, Garzo & Dufty 2004). Off: r = 1.
+  bool dilute_usf = false;
 };
 
 template <class S>
@@ -73,6 +92,9 @@ GF_HDI CollisionalParams<T> params_cast(const CollisionalParams<S>& p) {
   CollisionalParams<T> o;
   o.rho_p = T(p.rho_p); o.d = T(p.d); o.V_sd = T(p.V_sd); o.V_m = T(p.V_m); o.eps_n = T(p.eps_n);
   o.mu_p = T(p.mu_p); o.vs_gap = T(p.vs_gap);
+  o.restitution = p.restitution; o.k_mu = T(p.k_mu); o.jamming_friction = p.jamming_friction;
+  o.V_sd_inf = T(p.V_sd_inf); o.mu_star = T(p.mu_star); o.corr_c = T(p.corr_c);
+  o.dilute_usf = p.dilute_usf;
   return o;
 }
 
@@ -87,10 +109,18 @@ GF_HDI S stress_ratio_of_angle(S sin_phi) {
   return S(6) * sin_phi / (S(3) - sin_phi);
 }
 
-// Effective restitution, Eq. (24) (Chialvo & Sundaresan 2013).
+// Effective restitution, Eq. (24) (Chialvo & Sundaresan 2013); k_mu = 1.5 there.
 template <class S>
 GF_HDI S effective_restitution(const CollisionalParams<S>& c) {
-  return c.eps_n - S(1.5) * c.mu_p * std::exp(S(-3) * c.mu_p);
+  return c.eps_n - c.k_mu * c.mu_p * std::exp(S(-3) * c.mu_p);
+}
+
+// Solid fraction at which g0 diverges, Eqs. (25)-(26): V_sd, or with jamming_friction the
+// exponential fall with mu_p (after Chialvo, Sun & Sundaresan 2012; docs/constitutive.md).
+template <class S>
+GF_HDI S jamming_fraction(const CollisionalParams<S>& c) {
+  if (!c.jamming_friction) return c.V_sd;
+  return c.V_sd_inf + (c.V_sd - c.V_sd_inf) * std::exp(-c.mu_p / c.mu_star);
 }
 
 // Upper bound of void ratio in Eq. (13): the factor (2.97 - e) must stay positive.

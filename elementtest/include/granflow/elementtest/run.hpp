@@ -8,6 +8,8 @@
 // This header is the API the calibration toolkit codes against (issue 4): keep its names.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -74,12 +76,26 @@ struct InitialState {
   double T0 = -1.0;          // [m^2/s^2]; < 0: the parameter set's T0, else 1e-15
 };
 
+// The point state a MaterialUpdate advances: frictional stress (tension +, row-major 3x3), eps_pd,
+// void ratio, s = sqrt(T); it writes the total stress after the step into `stress`.
+struct PointState {
+  std::array<double, 9> sigma_f{};
+  double eps_pd = 0, e = 0, s = 0;
+  std::array<double, 9> stress{};
+};
+// A material update in place of the library's Model::update in the incremental solver: advances
+// `state` over a step dt with the velocity gradient L (row-major 3x3) the solver chose and returns
+// the update's flags (granflow::info; an error flag stops the run as the library's would). It
+// drives another implementation of the law through the driver's loading paths (the UMAT's tests).
+using MaterialUpdate = std::function<std::uint32_t(PointState& state, const std::array<double, 9>& L, double dt)>;
+
 struct SolverSettings {
   SolverKind kind = SolverKind::Cvode;
   double rtol = 1e-6;
   double atol = 1e-9;    // on the scaled state (stresses / max(sigma_v0, 1 Pa), s / (d * 1 s^-1), strains)
   double dt = 1e-4;      // [s] step of the incremental update
   long max_steps = 5000000;  // CVODE steps or incremental steps per run
+  MaterialUpdate material_update;  // incremental solver only; empty: the library's Model::update
 };
 
 struct OutputSettings {

@@ -47,7 +47,7 @@ std::string format_parameter_set(const ParameterSet& set);
 // Cross-checks of an initial state against a set: e0 in (0, 2.97), V_s0 below V_sd.
 void check_initial_void_ratio(const ParameterSet& set, double e0, const std::string& what);
 
-// Directory holding the shipped parameter sets (GRANFLOW_DATA_DIR or the source tree's data/).
+// The data folder of the shipped files: $GRANFLOW_DATA_DIR, else share_directory()/data (share.hpp).
 std::string data_directory();
 
 }  // namespace granflow::io
