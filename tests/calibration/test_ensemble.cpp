@@ -193,23 +193,30 @@ TEST(CalibrationEnsemble, PriorIsTheLatinHypercubeWithinTheBounds) {
   }
 }
 
-// Members the model cannot compute are replaced by copies of computed ones and stay within the
-// bounds; a batch without two computed members is an error naming the reason.
-TEST(CalibrationEnsemble, FailedMembersAreReplacedAndAllFailingIsAnError) {
-  const std::vector<PriorBound> prior = {{"a", 0.0, 1.0, false}, {"b", 0.1, 10.0, true}};
-  const std::vector<double> data = {0.3, 1.0}, sd = {0.05, 0.1};
-  long calls = 0;
-  const BatchForward forward = [&](const std::vector<std::vector<double>>& t) {
+namespace {
+// The "model" (a, log10 b + 1) of the failure tests, which cannot compute a > 0.8; counts its calls.
+BatchForward failing_above_08(long& calls) {
+  return [&calls](const std::vector<std::vector<double>>& t) {
     ++calls;
     BatchResult b;
     for (const auto& th : t) {
-      const bool fails = th[0] > 0.8;  // a region the "model" cannot compute
+      const bool fails = th[0] > 0.8;
       b.predictions.push_back(fails ? std::vector<double>() : std::vector<double>{th[0], std::log10(th[1]) + 1.0});
       b.ok.push_back(fails ? 0 : 1);
       b.why.push_back(fails ? "a > 0.8" : "");
     }
     return b;
   };
+}
+}  // namespace
+
+// Members the model cannot compute are replaced by copies of computed ones and stay within the
+// bounds; a batch without two computed members is an error naming the reason.
+TEST(CalibrationEnsemble, FailedMembersAreReplacedAndAllFailingIsAnError) {
+  const std::vector<PriorBound> prior = {{"a", 0.0, 1.0, false}, {"b", 0.1, 10.0, true}};
+  const std::vector<double> data = {0.3, 1.0}, sd = {0.05, 0.1};
+  long calls = 0;
+  const BatchForward forward = failing_above_08(calls);
   EnsembleMethodSpec spec;
   spec.members = 50;
   spec.iterations = 3;
@@ -252,17 +259,7 @@ TEST(CalibrationEnsemble, ResumedRunEqualsAnUninterruptedOne) {
   const std::vector<PriorBound> prior = {{"a", 0.0, 1.0, false}, {"b", 0.1, 10.0, true}};
   const std::vector<double> data = {0.3, 1.0}, sd = {0.05, 0.1};
   long calls = 0;
-  const BatchForward forward = [&](const std::vector<std::vector<double>>& t) {
-    ++calls;
-    BatchResult b;
-    for (const auto& th : t) {
-      const bool fails = th[0] > 0.8;
-      b.predictions.push_back(fails ? std::vector<double>() : std::vector<double>{th[0], std::log10(th[1]) + 1.0});
-      b.ok.push_back(fails ? 0 : 1);
-      b.why.push_back(fails ? "a > 0.8" : "");
-    }
-    return b;
-  };
+  const BatchForward forward = failing_above_08(calls);
   EnsembleMethodSpec spec;
   spec.members = 20;
   spec.iterations = 3;
