@@ -21,6 +21,8 @@
 #   profile        Nsight Compute of the 1 mm column's kernels (needs ncu)
 #   profile-ensemble  Nsight Compute of the 64-member 5 mm column's step kernels in the collapse
 #   sanitize       compute-sanitizer memcheck and racecheck of the CI scenes and CUDA option variants
+#   sanitize-ensemble  compute-sanitizer memcheck, racecheck and synccheck of an 8-member ensemble of
+#                  the CI column (the samples' snapshots on a second stream)
 #   3d             the 3D slab (8e6 points) benchmark: precisions and CUDA options
 #   ensemble       granflow ensemble against sequential single runs of the same members: 64
 #                  members of the 5 mm column (fp32, fp64), 16 of the 1 mm column (fp32)
@@ -448,6 +450,22 @@ part_profile_ensemble() {
     "$R/ncu_ensemble.txt" | head -60
 }
 
+part_sanitize_ensemble() {
+  local cs tool rc failed=0
+  cs=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer 2>/dev/null | head -1)
+  [ -n "$cs" ] || { echo "compute-sanitizer not found" | tee -a "$log"; return 1; }
+  for tool in memcheck racecheck synccheck; do
+    x 200 "$R/san_ens_$tool.txt" "$cs" --tool $tool --error-exitcode 9 "$G" ensemble "$SC/column_collapse_ci.toml" \
+      "$SC/ensembles/column_phi_lhs.toml" --backend "$BACKEND" --out "$R/san_ens" --force --no-png --quiet \
+      --set 'stage[0].duration=0.02' --set 'stage[1].duration=0.05' --set output.series_dt=0.002
+    rc=$?
+    [ $rc -eq 0 ] || failed=1
+    echo "  $tool ensemble of 8: exit $rc | $(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY|SYNCCHECK SUMMARY' "$R/san_ens_$tool.txt" | head -1)" |
+      tee -a "$log"
+  done
+  return $failed
+}
+
 part_sanitize() {
   local cs
   cs=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer 2>/dev/null | head -1)
@@ -493,8 +511,8 @@ main() {
   local part fn f t0 status=0
   for part in "$@"; do
     case $part in
-      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options | flow) ;;
-      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options flow)" >&2
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options | flow | sanitize-ensemble) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options flow sanitize-ensemble)" >&2
          return 2 ;;
     esac
   done
