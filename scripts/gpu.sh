@@ -457,7 +457,7 @@ part_sanitize_ensemble() {
   for tool in memcheck racecheck synccheck; do
     x 200 "$R/san_ens_$tool.txt" "$cs" --tool $tool --error-exitcode 9 "$G" ensemble "$SC/column_collapse_ci.toml" \
       "$SC/ensembles/column_phi_lhs.toml" --backend "$BACKEND" --out "$R/san_ens" --force --no-png --quiet \
-      --set 'stage[0].duration=0.02' --set 'stage[1].duration=0.05' --set output.series_dt=0.002
+      --set 'stage[0].duration=0.02' --set 'stage[1].duration=0.05' --set 'output.times=[0.04]' --set output.series_dt=0.002
     rc=$?
     [ $rc -eq 0 ] || failed=1
     echo "  $tool ensemble of 8: exit $rc | $(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY|SYNCCHECK SUMMARY' "$R/san_ens_$tool.txt" | head -1)" |
