@@ -82,12 +82,18 @@ def main():
     kpa = lambda v: [x / 1e3 for x in v]
     pct = lambda v: [100 * x for x in v]
 
+    def measured(ax, x, y):  # the test's points
+        ax.plot(x, y, ".", ms=2, color="0.4")
+
+    def modelled(ax, x, y):  # the fitted law's curve
+        ax.plot(x, y, "-", color="C3", lw=1.2)
+
     def q_p(ax, t, row, dry):
         q, p = q_of(t), p_of(t)
         if dry:
             return q is not None and p is not None
-        ax.plot(kpa(p["data"]), kpa(q["data"]), ".", ms=2, color="0.4")
-        ax.plot(kpa(p["model"]), kpa(q["model"]), "-", color="C3", lw=1.2)
+        measured(ax, kpa(p["data"]), kpa(q["data"]))
+        modelled(ax, kpa(p["model"]), kpa(q["model"]))
         top = max(max(p["data"]), max(x for x in p["model"] if x == x)) / 1e3
         ax.plot([0, top], [0, mc * top], ":", color="k", lw=0.8)
         ax.plot([0, top], [0, -me * top], ":", color="k", lw=0.8)
@@ -98,8 +104,8 @@ def main():
         q = q_of(t)
         if dry:
             return q is not None
-        ax.plot(pct(q["x"]), kpa(q["data"]), ".", ms=2, color="0.4")
-        ax.plot(pct(q["x"]), kpa(q["model"]), "-", color="C3", lw=1.2)
+        measured(ax, pct(q["x"]), kpa(q["data"]))
+        modelled(ax, pct(q["x"]), kpa(q["model"]))
         ax.set_xlabel("eps_1 [%]", fontsize=7)
         ax.set_ylabel("q [kPa]", fontsize=7)
 
@@ -107,8 +113,8 @@ def main():
         v = curves.get((t, "eps_v"))
         if dry:
             return v is not None
-        ax.plot(pct(v["x"]), pct(v["data"]), ".", ms=2, color="0.4")
-        ax.plot(pct(v["x"]), pct(v["model"]), "-", color="C3", lw=1.2)
+        measured(ax, pct(v["x"]), pct(v["data"]))
+        modelled(ax, pct(v["x"]), pct(v["model"]))
         ax.set_xlabel("eps_1 [%]", fontsize=7)
         ax.set_ylabel("eps_v [%] (contraction +)", fontsize=7)
 
@@ -124,11 +130,11 @@ def main():
             x = p["data"]
             d = [(1 + e0) * math.exp(-y) - 1 for y in v["data"]]
             m = [(1 + e0) * math.exp(-y) - 1 for y in v["model"]]
-            ax.plot(kpa(p["model"]), m, "-", color="C3", lw=1.2)
+            modelled(ax, kpa(p["model"]), m)
             ax.set_xlabel("p' [kPa]", fontsize=7)
-        ax.plot(kpa(x), d, ".", ms=2, color="0.4")
+        measured(ax, kpa(x), d)
         if e is not None:
-            ax.plot(kpa(x), m, "-", color="C3", lw=1.2)
+            modelled(ax, kpa(x), m)
         lo, hi = min(x), max(x)
         ps = [lo * (hi / lo) ** (i / 40.0) for i in range(41)] if lo > 0 else []
         ax.plot(kpa(ps), [ec(pp) for pp in ps], ":", color="k", lw=0.8)

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "granflow/calibration/experiment.hpp"
+#include "granflow/calibration/fit.hpp"
 #include <granflow/io/output.hpp>
 #include <granflow/io/share.hpp>
 
@@ -190,12 +191,7 @@ void write_test_report(const TestReport& report, const io::ParameterSet& fitted,
   io::write_file((d / "tests.txt").string(), format_test_report(report), io::Durability::Buffered);
   if (!plot || !fitted.frictional) return;
   const std::string script = io::script_path("plot_sand_tests.py");
-  std::string py;
-  for (const char* cand : {"python3", "/usr/bin/python3"})
-    if (std::system((std::string(cand) + " -c 'import matplotlib' >/dev/null 2>&1").c_str()) == 0) {
-      py = cand;
-      break;
-    }
+  const std::string py = python_with_matplotlib();
   if (py.empty() || script.empty()) {
     std::cerr << "calibrate: the per-test PNGs skipped ("
               << (py.empty() ? "no python3 with matplotlib" : "scripts/plot_sand_tests.py not found") << ")\n";
