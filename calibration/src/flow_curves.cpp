@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <limits>
 #include <map>
@@ -17,6 +18,7 @@
 #include "granflow/calibration/fit.hpp"
 #include "granflow/calibration/parameters.hpp"
 #include <granflow/io/input_error.hpp>
+#include <granflow/io/output.hpp>
 #include <granflow/io/share.hpp>
 
 namespace granflow::calibration {
@@ -323,50 +325,47 @@ std::string format_flow_curve_report(const FlowCurveReport& r) {
 
 void write_flow_curve_report(const FlowCurveReport& r, const std::string& dir, bool plot) {
   namespace fs = std::filesystem;
-  auto open = [&](const std::string& name) {
-    std::ofstream f(fs::path(dir) / name);
-    if (!f) throw io::InputError("cannot write " + (fs::path(dir) / name).string());
+  // Each file through the checked write path (temporary name, checked, renamed).
+  auto put = [&](const std::string& name, const std::function<void(std::ostream&)>& body) {
+    std::ostringstream f;
     f.precision(10);
-    return f;
+    body(f);
+    io::write_file((fs::path(dir) / name).string(), f.str(), io::Durability::Buffered);
   };
-  auto header = [&](std::ofstream& f) {
+  auto header = [&](std::ostream& f) {
     f << "group,mu_p,eps_n";
     for (const auto& w : r.windows) f << ",rmse_" << w.first << "_" << w.second;
     for (std::size_t b = 0; b + 1 < r.bands.size(); ++b) f << ",band_" << r.bands[b] << "_" << r.bands[b + 1];
     f << ",friction_rmse,undefined\n";
   };
-  auto row = [&](std::ofstream& f, const GroupScore& g, const std::string& prefix) {
+  auto row = [&](std::ostream& f, const GroupScore& g, const std::string& prefix) {
     f << prefix << "\"" << g.name << "\"," << g.mu_p << "," << g.eps_n;
     for (double v : g.rmse) f << "," << (std::isfinite(v) ? std::to_string(v) : "");
     for (double v : g.band_rmse) f << "," << (std::isfinite(v) ? std::to_string(v) : "");
     f << "," << (std::isfinite(g.friction_rmse) ? std::to_string(g.friction_rmse) : "") << "," << g.undefined << "\n";
   };
-  {
-    auto f = open("flow_scores.csv");
+  put("flow_scores.csv", [&](std::ostream& f) {
     header(f);
     for (const auto& g : r.fitted) row(f, g, "");
-  }
+  });
   for (const auto& [name, rows] : {std::pair{"flow_cv_groups.csv", &r.leave_one_group},
                                    std::pair{"flow_cv_friction.csv", &r.leave_one_friction}}) {
     if (rows->empty()) continue;
-    auto f = open(name);
-    f << "fit,";
-    header(f);
-    for (const auto& rw : *rows)
-      for (const auto& g : rw.scores) row(f, g, "\"" + rw.left_out + "\",");
+    put(name, [&, rows = rows](std::ostream& f) {
+      f << "fit,";
+      header(f);
+      for (const auto& rw : *rows)
+        for (const auto& g : rw.scores) row(f, g, "\"" + rw.left_out + "\",");
+    });
   }
-  {
-    auto f = open("flow_points.csv");
+  put("flow_points.csv", [&](std::ostream& f) {
     f << "group,nu,p,s,T,p_model,s_model,T_model\n";
     auto v = [](double x) { return std::isfinite(x) ? std::to_string(x) : std::string(); };
     for (const auto& p : r.points)
       f << "\"" << p.group << "\"," << p.nu << "," << v(p.p) << "," << v(p.s) << "," << v(p.T) << "," << v(p.p_m) << ","
         << v(p.s_m) << "," << v(p.T_m) << "\n";
-  }
-  {
-    auto f = open("flow_report.txt");
-    f << format_flow_curve_report(r);
-  }
+  });
+  put("flow_report.txt", [&](std::ostream& f) { f << format_flow_curve_report(r); });
   if (!plot) return;
   const std::string script = io::script_path("plot_flow_curves.py");
   const std::string py = python_with_matplotlib();
