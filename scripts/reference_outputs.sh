@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs the shipped CPU examples with a built granflow and lists the SHA-256 of every result file
-# (element CSVs, figure CSVs, MPM series, final profiles and VTU frames). Two trees whose lists
+# (element CSVs, figure CSVs, MPM series, final profiles and VTU frames, an ensemble's summaries
+# and a calibration's fitted curves). Two trees whose lists
 # match produce byte-identical results: the check for refactors that must not change a number.
 #   scripts/reference_outputs.sh [BUILD_DIR] [OUT_DIR]   (defaults: build, out/reference)
 set -euo pipefail
@@ -18,4 +19,7 @@ done
 for s in mpm/scenes/*_ci*.toml; do
   "$g" mpm "$s" --out "$out/mpm/$(basename "$s" .toml)" --no-png --quiet >/dev/null
 done
+"$g" ensemble mpm/scenes/column_collapse_ci.toml mpm/scenes/ensembles/column_phi_lhs.toml \
+     --out "$out/ensemble/column_phi_lhs" --no-png --quiet >/dev/null
+"$g" calibrate data/calibration/frictional_synthetic.toml --out "$out/calibration/frictional_synthetic" >/dev/null
 (cd "$out" && find . -type f \( -name '*.csv' -o -name '*.vtu' -o -name '*.pvd' \) | LC_ALL=C sort | xargs sha256sum)
