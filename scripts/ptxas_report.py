@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Register use, spills and stack of the MPM CUDA kernels from `nvcc -Xptxas -v` output.
 
-    scripts/ptxas_report.sh            # compiles mpm/src/cuda_runner.cu for sm_90 and prints the table
+    scripts/ptxas_report.sh            # compiles the kernel files mpm/src/cuda/kernels/*.cu for sm_90 and prints the table
     python3 scripts/ptxas_report.py LOG  # the table of a saved ptxas log
 
 One line per kernel instantiation: kernel, model (PT phase transition, FR frictional), shape

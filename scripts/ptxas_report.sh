@@ -8,9 +8,9 @@ NVCC=${NVCC:-$(command -v nvcc || echo /usr/local/cuda/bin/nvcc)}
 EIGEN=$([ -d .deps/include/Eigen ] && echo "$PWD/.deps/include" || echo /usr/include/eigen3)
 log=${1:-/tmp/granflow_ptxas.log}
 : > "$log"
-for f in mpm/src/cuda_kernels_*.cu; do
+for f in mpm/src/cuda/kernels/cuda_kernels_*.cu; do
   "$NVCC" -O3 -DNDEBUG -std=c++17 --generate-code=arch=compute_${CUDA_ARCH:-90},code=sm_${CUDA_ARCH:-90} \
-    --expt-relaxed-constexpr -diag-suppress 20012,20014,20015 -Impm/include -Iconstitutive/include -isystem "$EIGEN" \
+    --expt-relaxed-constexpr -diag-suppress 20012,20014,20015 -Impm/include -Impm/src -Iconstitutive/include -isystem "$EIGEN" \
     -Xptxas -v -c "$f" -o /dev/null >> "$log" 2>&1 &
 done
 wait

@@ -1,4 +1,4 @@
-// A scene as plain data: what the TOML loader (mpm/src/scene_file.cpp) fills and the MPM takes.
+// A scene as plain data: what the TOML loader (mpm/src/scene/scene_file.cpp) fills and the MPM takes.
 // No file format here; programs and tests may build scenes in code (see small_column_scene).
 #pragma once
 

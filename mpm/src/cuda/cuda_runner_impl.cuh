@@ -32,7 +32,7 @@
 #include "cuda_sampling.cuh"
 #include "cuda_span.cuh"
 #include "cuda_step.cuh"
-#include "runner_common.hpp"
+#include "run/runner_common.hpp"
 
 namespace granflow::mpm {
 namespace {

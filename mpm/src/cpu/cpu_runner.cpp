@@ -12,7 +12,7 @@
 #include <omp.h>
 #endif
 
-#include "runner_common.hpp"
+#include "run/runner_common.hpp"
 
 namespace granflow::mpm {
 namespace {

@@ -84,7 +84,7 @@ void random_shift(std::vector<std::vector<double>>& u, int dims, std::uint64_t s
     }
 }
 
-// A key as `granflow mpm --set` takes it (mpm/src/scene_file.cpp split_key): names of letters,
+// A key as `granflow mpm --set` takes it (mpm/src/scene/scene_file.cpp split_key): names of letters,
 // digits, _ and -, joined by '.', a name may carry an index [i]; the last part is a name.
 // Returns the key with indices written without leading zeros, or "" when malformed.
 std::string canonical_set_key(const std::string& key) {

@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "runner_common.hpp"
+#include "run/runner_common.hpp"
 
 namespace granflow::mpm {
 

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "cuda_launch_config.cuh"
-#include "runner_common.hpp"
+#include "run/runner_common.hpp"
 
 namespace granflow::mpm {
 namespace {
