@@ -61,7 +61,12 @@ def test_bad_file_names_file_line_and_key(tmp_path, cli):
 
 
 def test_wrong_argument_types():
-    with pytest.raises(TypeError):
-        granflow.load_params(42)
-    with pytest.raises(TypeError):
-        granflow.load_params("element_test", overrides=[1])
+    # A wrong type raises InputTypeError: an InputError (every bad argument) and a TypeError.
+    for call in (lambda: granflow.load_params(42), lambda: granflow.load_params("element_test", overrides=[1]),
+                 lambda: granflow.load_params({"frictional": {"K0": object()}}),
+                 lambda: granflow.load_params("element_test").with_overrides(3.0),
+                 lambda: granflow.parse_params(5), lambda: granflow.element(7),
+                 lambda: granflow.calibrate(None)):
+        with pytest.raises(granflow.InputTypeError) as e:
+            call()
+        assert isinstance(e.value, granflow.InputError) and isinstance(e.value, TypeError)

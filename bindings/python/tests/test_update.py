@@ -153,6 +153,15 @@ def test_bad_arrays_are_input_errors(state, grad_v, dt, message):
     assert message in str(e.value)
 
 
+def test_wrong_types_are_input_errors_and_type_errors():
+    for call in (lambda: granflow.update("element_test", {"e": "dense"}, np.zeros((3, 3)), 1e-3, model="collisional"),
+                 lambda: granflow.update("element_test", {"e": np.ones(1), "T": np.ones(1)}, np.zeros((3, 3)), 1e-3,
+                                         model="collisional", threads="all")):
+        with pytest.raises(granflow.InputError) as e:
+            call()
+        assert isinstance(e.value, TypeError) and isinstance(e.value, granflow.InputTypeError)
+
+
 def test_model_needs_its_table():
     with pytest.raises(granflow.InputError, match=r"needs a \[collisional\] table"):
         granflow.update("frictional_element", {"e": np.ones(1), "T": np.ones(1)}, np.zeros((3, 3)), 1e-3,
