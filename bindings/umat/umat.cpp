@@ -125,6 +125,13 @@ Material read_props(const double* props, int nprops) {
   return mat;
 }
 
+// Refuses a NaN or infinite value of an Abaqus array: "NAME(k) = nan is not finite".
+void require_finite(const double* v, int n, const char* name, int first = 1) {
+  for (int k = 0; k < n; ++k)
+    if (!std::isfinite(v[k]))
+      throw Rejected{std::string(name) + "(" + std::to_string(first + k) + ") = " + fmt(v[k]) + " is not finite on entry"};
+}
+
 // The material of the last PROPS this thread saw (a UMAT is called with the same PROPS many times).
 const Material& material(const double* props, int nprops) {
   thread_local std::array<double, GRANFLOW_UMAT_NPROPS_PHASE_TRANSITION> last{};
@@ -247,6 +254,14 @@ GRANFLOW_UMAT_API void umat_(double* stress, double* statev, double* ddsdde, dou
       throw Rejected{"NSTATV = " + std::to_string(*nstatv) + ": *DEPVAR needs at least " +
                      std::to_string(GRANFLOW_UMAT_NSTATV) + " (docs/umat.md, STATEV)"};
     const Material& mat = material(props, *nprops);
+    // The increment and the state on entry: finite, admissible (state_check.hpp).
+    if (!(*dtime >= 0) || !std::isfinite(*dtime))
+      throw Rejected{"DTIME = " + fmt(*dtime) + ": must be finite and >= 0"};
+    require_finite(dstran, n, "DSTRAN");
+    require_finite(drot, 9, "DROT");
+    require_finite(stress, n, "STRESS");
+    require_finite(statev, 3, "STATEV");
+    require_finite(statev + kSigmaC, 6, "STATEV", kSigmaC + 1);
 
     // The state at the start, in the frame Abaqus has rotated the stress into. The stored
     // collisional stress is a tensor state variable: rotated here by DROT, as Abaqus expects of a UMAT.
@@ -259,13 +274,27 @@ GRANFLOW_UMAT_API void umat_(double* stress, double* statev, double* ddsdde, dou
       in.e = mat.e0;
       in.T = mat.model == GRANFLOW_UMAT_PHASE_TRANSITION ? mat.T0 : 0.0;
       in.eps_pd = initial_plastic_strain<kLode>(mat.p.f, in.sigma_f, in.e);
-      if (!(in.eps_pd >= 0))
+      // A tension (p_f < 0) lies outside the cone of a cohesionless skeleton, as a stress
+      // ratio above g M_p does; the update would set it to zero.
+      if (!(in.eps_pd >= 0) || mean_pressure(in.sigma_f) < 0)
         throw Rejected{"the initial stress (p_f = " + fmt(mean_pressure(in.sigma_f)) + " Pa, q_f = " +
-                       fmt(deviatoric_q(in.sigma_f)) + " Pa) lies outside the yield surface at e0 = " + fmt(in.e)};
+                       fmt(deviatoric_q(in.sigma_f)) + " Pa) lies outside the yield surface at e0 = " + fmt(in.e) +
+                       (mean_pressure(in.sigma_f) < 0 ? " (a tension: p_f < 0)" : "")};
     } else {
       in.e = statev[kE];
       in.eps_pd = statev[kEpsPd];
       in.T = statev[kT];
+      switch (frictional_state_fault(in.sigma_f, in.eps_pd, in.e)) {
+        case StateFault::PlasticStrain:
+          throw Rejected{"STATEV(2) eps_pd = " + fmt(in.eps_pd) + " on entry: must be >= 0"};
+        case StateFault::VoidRatio:
+          throw Rejected{"STATEV(1) e = " + fmt(in.e) + " on entry: must be in (0, " + fmt(kVoidRatioMax) + ")"};
+        case StateFault::Stress:
+          throw Rejected{"the frictional stress STRESS - STATEV(8:13) overflows (not finite) on entry"};
+        default: break;
+      }
+      if (!admissible_sqrt_temperature(std::sqrt(in.T)))
+        throw Rejected{"STATEV(3) T = " + fmt(in.T) + " on entry: must be >= 0"};
     }
     const M3 deps = tensor_of_strain(dstran, n);
     const PointOut o = increment(mat, in, deps, *dtime);

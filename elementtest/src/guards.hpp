@@ -89,7 +89,7 @@ inline std::string update_flags_text(std::uint32_t flags) {
     if (flags & bit) s += (s.empty() ? "" : "; ") + std::string(what);
   };
   add(info::kNonFinite, "a non-finite value was produced");
-  add(info::kInadmissible, "inadmissible input state (e <= 0, e >= 2.97 or T < 0)");
+  add(info::kInadmissible, "inadmissible input state (stress or eps_pd not finite, eps_pd < 0, e <= 0, e >= 2.97 or T < 0)");
   add(info::kSubstepLimit, "substep budget exhausted");
   add(info::kReturnUnconverged, "return map unconverged (last iterate kept)");
   return s.empty() ? "flags " + std::to_string(flags) : s;

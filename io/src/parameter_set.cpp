@@ -17,6 +17,19 @@ namespace {
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
+// phi_c in degrees as read: of the degree values that give phi_c (times kDeg), the one with the
+// fewest significant digits, so phi_c_deg = 30 reads back as 30, not 29.999999999999996.
+double degrees_of(double phi_c) {
+  const double deg = phi_c / kDeg;
+  char buf[32];
+  for (int digits = 1; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof buf, "%.*g", digits, deg);
+    const double d = std::strtod(buf, nullptr);
+    if (d * kDeg == phi_c) return d;
+  }
+  return deg;
+}
+
 FrictionalParams<double> read_frictional(TomlTable& t) {
   FrictionalParams<double> f;
   f.K0 = t.number("K0", Bounds::positive());
@@ -264,7 +277,7 @@ std::string format_parameter_set(const ParameterSet& s) {
   if (!s.source.empty()) os << "source = " << q(s.source) << "\n";
   if (s.frictional) {
     const auto& f = *s.frictional;
-    os << "\n[frictional]\nK0 = " << f.K0 << "\nnu = " << f.nu << "\nn = " << f.n << "\nphi_c_deg = " << f.phi_c / kDeg
+    os << "\n[frictional]\nK0 = " << f.K0 << "\nnu = " << f.nu << "\nn = " << f.n << "\nphi_c_deg = " << degrees_of(f.phi_c)
        << "\ne_ref = " << f.e_ref << "\nlambda_c = " << f.lambda_c << "\nxi = " << f.xi << "\nA_d = " << f.A_d
        << "\nk_p = " << f.k_p << "\nn_p = " << f.n_p << "\nn_d = " << f.n_d << "\np_at = " << f.p_at << "\n";
   }

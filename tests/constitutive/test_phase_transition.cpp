@@ -2,6 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
 #include <type_traits>
 
 #include "random_states.hpp"
@@ -106,6 +109,64 @@ TEST(PhaseTransition, FailedUpdateLeavesTheStateUntouched) {
   EXPECT_EQ(st.sigma_f, before.sigma_f);
   st.s = -1.0;  // inadmissible temperature
   EXPECT_FALSE(PT::update(p, st, Mat3<double>::Zero(), 1e-3, sig).ok());
+}
+
+// A NaN or infinite input, or a negative eps_pd, is refused before the update starts by every
+// model and integrator (state_check.hpp): it used to pass, a NaN stress as a tension cut-off.
+template <class S>
+void expect_refused(const char* what) {
+  using M = Mat3<S>;
+  const PhaseTransitionParams<S> p = params_cast<S>(test::table3_collapse());
+  const S nan = std::numeric_limits<S>::quiet_NaN(), inf = std::numeric_limits<S>::infinity();
+  struct Fault {
+    const char* name;
+    int field;  // 0 sigma_f(i, j), 1 eps_pd, 2 s
+    int i, j;
+    S value;
+  };
+  const Fault faults[] = {{"sigma_f(0,0) nan", 0, 0, 0, nan}, {"sigma_f(1,2) inf", 0, 1, 2, inf},
+                          {"sigma_f(2,2) -inf", 0, 2, 2, -inf}, {"eps_pd nan", 1, 0, 0, nan},
+                          {"eps_pd inf", 1, 0, 0, inf},         {"eps_pd < 0", 1, 0, 0, S(-1e-3)},
+                          {"s nan", 2, 0, 0, nan},              {"s inf", 2, 0, 0, inf}};
+  const M L = test::simple_shear(10.0).template cast<S>();
+  const S dt = S(1e-4);
+  for (const Fault& f : faults) {
+    SCOPED_TRACE(std::string(what) + ": " + f.name);
+    PhaseTransitionState<S> st;
+    st.sigma_f = -S(500) * M::Identity();
+    st.e = S(0.95);
+    st.s = S(1e-3);
+    if (f.field == 0) st.sigma_f(f.i, f.j) = f.value;
+    if (f.field == 1) st.eps_pd = f.value;
+    if (f.field == 2) st.s = f.value;
+    M sig = M::Zero();
+    auto untouched = [](const auto& a, const auto& b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+    auto refused = [](UpdateInfo i) { return !i.ok() && (i.flags & info::kInadmissible); };
+    auto pt = st;
+    EXPECT_TRUE(refused(PhaseTransitionModel<S>::update(p, pt, L, dt, sig)));
+    EXPECT_TRUE(untouched(pt, st));
+    EXPECT_TRUE(refused(PhaseTransitionModel<S>::template update<UpdatePart::ElasticOnly>(p, pt, L, dt, sig)));
+    EXPECT_TRUE(untouched(pt, st));
+    if (f.field == 2) {
+      CollisionalState<S> co{st.e, st.s}, co0 = co;
+      EXPECT_TRUE(refused(CollisionalModel<S>::update(p.c, co, L, dt, sig)));
+      EXPECT_TRUE(untouched(co, co0));
+      continue;
+    }
+    const FrictionalState<S> fs0{st.sigma_f, st.eps_pd, st.e};
+    auto fs = fs0;
+    EXPECT_TRUE(refused(FrictionalModel<S>::update(p.f, fs, L, dt, sig)));
+    EXPECT_TRUE(untouched(fs, fs0));
+    EXPECT_TRUE(refused(
+        FrictionalModel<S, LodeShape::SmoothMohrCoulomb, StressIntegrator::ExplicitSubstep>::update(p.f, fs, L, dt, sig)));
+    EXPECT_TRUE(refused(FrictionalModel<S, LodeShape::SmoothMohrCoulomb, StressIntegrator::Hybrid>::update(p.f, fs, L, dt, sig)));
+    EXPECT_TRUE(untouched(fs, fs0));
+  }
+}
+
+TEST(PhaseTransition, NonFiniteOrInadmissibleInputStateIsRefused) {
+  expect_refused<double>("double");
+  expect_refused<float>("float");
 }
 
 // The GPU's split G2P (UpdatePart::ElasticOnly, then Full on the deferred points) must give the

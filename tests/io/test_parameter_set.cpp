@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -90,6 +92,30 @@ TEST(ParameterSet, RoundTripThroughTheWriter) {
   EXPECT_EQ(a.frictional->phi_c, b.frictional->phi_c);
   EXPECT_EQ(a.collisional->V_sd, b.collisional->V_sd);
   EXPECT_EQ(a.e0, b.e0);
+}
+
+// phi_c_deg is written as the value it was read from (30, not 29.999999999999996), for every
+// angle with two decimals; the written text still reads back to the same radians.
+TEST(ParameterSet, DegreesAreWrittenAsRead) {
+  const std::string good = kGood;
+  const std::string key = "phi_c_deg = 19.8";
+  ASSERT_NE(good.find(key), std::string::npos);
+  int naive_differs = 0;  // angles whose radians / (pi / 180) is not the value read
+  for (int k = 1; k < 9000; ++k) {
+    char deg[16];
+    std::snprintf(deg, sizeof deg, "%.2f", k / 100.0);
+    std::string text = good;
+    text.replace(text.find(key), key.size(), std::string("phi_c_deg = ") + deg);
+    const auto a = io::parse_parameter_set_text(text, "p.toml");
+    const std::string out = io::format_parameter_set(a);
+    const std::size_t at = out.find("phi_c_deg = ");
+    ASSERT_NE(at, std::string::npos);
+    const double written = std::strtod(out.c_str() + at + 12, nullptr);
+    ASSERT_EQ(written, std::strtod(deg, nullptr)) << deg << " written as " << out.substr(at, 40);
+    ASSERT_EQ(io::parse_parameter_set_text(out, "out.toml").frictional->phi_c, a.frictional->phi_c) << deg;
+    naive_differs += a.frictional->phi_c / (M_PI / 180.0) != written;
+  }
+  EXPECT_GT(naive_differs, 100);  // the case the writer has to handle occurs
 }
 
 TEST(ParameterSet, OverridesAreValidated) {

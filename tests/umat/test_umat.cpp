@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -292,6 +293,65 @@ TEST(Umat, BadInputIsRejectedWithItsName) {
     EXPECT_NE(msg.find("material BEADS,"), std::string::npos) << msg;
     EXPECT_EQ(stress[1], -500.0);
     EXPECT_EQ(statev[0], 0.0);
+  }
+  // A bad state or increment on entry (NaN or inf, eps_pd or T < 0, DTIME < 0, an initial
+  // tension), each against a started point that is accepted as it stands (the first row).
+  const std::vector<double> pt = props_of(set, 0.99, true);
+  const double nan = std::nan(""), inf = HUGE_VAL;
+  struct BadEntry {
+    const char* expect;  // nullptr: the good control
+    int stress_k = -1, statev_k = -1, dstran_k = -1;  // 0-based index changed, or -1
+    double value = 0, dt = 1e-3;
+    bool first = false;  // STATEV all zero: the first increment
+  };
+  const BadEntry entries[] = {
+      {nullptr},
+      {"STRESS(1) = nan is not finite", 0, -1, -1, nan},
+      {"STRESS(5) = inf is not finite", 4, -1, -1, inf},
+      {"STATEV(2) = nan is not finite", -1, 1, -1, nan},
+      {"STATEV(2) eps_pd = -0.01 on entry: must be >= 0", -1, 1, -1, -0.01},
+      {"STATEV(1) e = 3.5 on entry: must be in (0, 2.97)", -1, 0, -1, 3.5},
+      {"STATEV(3) T = -1 on entry: must be >= 0", -1, 2, -1, -1.0},
+      {"STATEV(3) = inf is not finite", -1, 2, -1, inf},
+      {"STATEV(9) = nan is not finite", -1, 8, -1, nan},
+      {"DSTRAN(4) = nan is not finite", -1, -1, 3, nan},
+      {"DTIME = -0.001: must be finite and >= 0", -1, -1, -1, 0, -1e-3},
+      {"DTIME = nan: must be finite and >= 0", -1, -1, -1, 0, nan},
+      {"(p_f = -100000 Pa, q_f = 0 Pa) lies outside the yield surface at e0 = 0.99 (a tension: p_f < 0)", 0, -1,
+       -1, 100e3, 1e-3, true},
+  };
+  for (const BadEntry& b : entries) {
+    SCOPED_TRACE(b.expect ? b.expect : "the good control");
+    double stress[6] = {-500, -500, -500, 0, 0, 0}, statev[GRANFLOW_UMAT_NSTATV] = {0.99, 0.001, 1e-6},
+           ddsdde[36], stran[6] = {}, dstran[6] = {0, -1e-4, 0, 0, 0, 0}, drot[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    if (b.first) std::fill(statev, statev + GRANFLOW_UMAT_NSTATV, 0.0);
+    if (b.first) std::fill(stress, stress + 3, b.value);
+    if (b.stress_k >= 0 && !b.first) stress[b.stress_k] = b.value;
+    if (b.statev_k >= 0) statev[b.statev_k] = b.value;
+    if (b.dstran_k >= 0) dstran[b.dstran_k] = b.value;
+    double stress0[6], statev0[GRANFLOW_UMAT_NSTATV];
+    std::copy(stress, stress + 6, stress0);
+    std::copy(statev, statev + GRANFLOW_UMAT_NSTATV, statev0);
+    double sse = 0, spd = 0, scd = 0, rpl = 0, ddsddt[6], drplde[6], drpldt = 0, time[2] = {0, 0}, dt = b.dt,
+           temp = 0, dtemp = 0, predef[1] = {0}, dpred[1] = {0}, coords[3] = {0, 0, 0}, pnewdt = 1, celent = 1,
+           f0[9] = {}, f1[9] = {};
+    const int ndi = 3, nshr = 3, ntens = 6, nstatv = GRANFLOW_UMAT_NSTATV, nprops = int(pt.size()), one = 1,
+              jstep[4] = {1, 0, 0, 0};
+    umat_(stress, statev, ddsdde, &sse, &spd, &scd, &rpl, ddsddt, drplde, &drpldt, stran, dstran, time, &dt, &temp,
+          &dtemp, predef, dpred, "BEADS   ", &ndi, &nshr, &ntens, &nstatv, pt.data(), &nprops, coords, drot, &pnewdt,
+          &celent, f0, f1, &one, &one, &one, &one, jstep, &one, 8);
+    const std::string msg = granflow_umat_last_error();
+    if (!b.expect) {
+      EXPECT_EQ(pnewdt, 1.0) << msg;
+      EXPECT_EQ(msg, "");
+      continue;
+    }
+    EXPECT_LT(pnewdt, 1.0);
+    EXPECT_NE(msg.find(b.expect), std::string::npos) << msg;
+    EXPECT_NE(msg.find("material BEADS,"), std::string::npos) << msg;
+    // as they came, NaN included
+    EXPECT_EQ(std::memcmp(stress, stress0, sizeof stress), 0);
+    EXPECT_EQ(std::memcmp(statev, statev0, sizeof statev), 0);
   }
   // NSTATV too small and plane stress (NTENS 3)
   std::vector<double> props = props_of(set, 0.99, true);

@@ -28,10 +28,35 @@ if "GRANFLOW_DATA_DIR" not in _os.environ:
     if _data:
         _os.environ["GRANFLOW_DATA_DIR"] = _data
 
-from ._granflow import (FLAGS, FLAG_ERROR_MASK, InputError, OutputError, ParameterSet, calibrate,
-                        cuda_available, data_directory, element, element_columns, load_params, mpm,
-                        parse_params, update)
+import functools as _functools
 
-__all__ = ["FLAGS", "FLAG_ERROR_MASK", "InputError", "OutputError", "ParameterSet", "calibrate",
-           "cuda_available", "data_directory", "element", "element_columns", "load_params", "mpm",
+from . import _granflow
+from ._granflow import FLAGS, FLAG_ERROR_MASK, InputError, OutputError, ParameterSet, cuda_available, data_directory
+
+
+class InputTypeError(InputError, TypeError):
+    """An argument of the wrong type: an InputError (so `except granflow.InputError` catches
+    every bad argument) and a TypeError, as Python code expects."""
+
+
+def _typed(f):
+    """f, raising InputTypeError where it (or pybind11's argument matching) raises TypeError."""
+    @_functools.wraps(f)
+    def call(*args, **kwargs):
+        try:
+            return f(*args, **kwargs)
+        except TypeError as e:
+            if isinstance(e, InputError):
+                raise
+            raise InputTypeError(str(e)) from None
+    return call
+
+
+calibrate, element, element_columns, load_params, mpm, parse_params, update = (
+    _typed(getattr(_granflow, n))
+    for n in ("calibrate", "element", "element_columns", "load_params", "mpm", "parse_params", "update"))
+ParameterSet.with_overrides = _typed(ParameterSet.with_overrides)
+
+__all__ = ["FLAGS", "FLAG_ERROR_MASK", "InputError", "InputTypeError", "OutputError", "ParameterSet",
+           "calibrate", "cuda_available", "data_directory", "element", "element_columns", "load_params", "mpm",
            "parse_params", "update"]

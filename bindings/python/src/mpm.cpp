@@ -3,6 +3,7 @@
 // the tracked points, the final particles and the free surface returned as arrays instead of files.
 #include <signal.h>
 
+#include <cmath>
 #include <csignal>
 
 #include <granflow/mpm/driver.hpp>
@@ -46,6 +47,9 @@ py::array_t<double> points(const std::vector<double>& v, long n, int dim) {
 
 py::dict mpm_run(py::handle scene, py::handle params, py::handle overrides, const std::string& backend,
                  py::handle precision, double stop_after, bool progress) {
+  if (!std::isfinite(stop_after))
+    throw io::InputError("mpm: stop_after = " + std::to_string(stop_after) +
+                         ": must be a finite time [s] (> 0 stops there, <= 0 runs the whole scene)");
   mpm::SceneOverrides ov;
   if (!params.is_none()) ov.params = path_arg(params, "params");
   ov.sets = strings_arg(overrides, "overrides");
@@ -146,7 +150,7 @@ params      parameter set instead of material.parameters (name or path, as --par
 overrides   KEY=VALUE strings, scene or parameter-set keys (as --set), e.g. "grid.h=0.02"
 backend     "cpu" (the OpenMP twin; OMP_NUM_THREADS threads) or "cuda"
 precision   "fp64", "mixed" or "fp32" instead of solver.precision
-stop_after  > 0: stop at this simulated time [s]
+stop_after  > 0: stop at this simulated time [s]; <= 0: the whole scene
 
 Returns a dict: series (runout.csv's columns), tracked (tracked.csv's, name as strings),
 particles (final state: x and v (n, dim), p, q, eps_pd, T, eta_c, K_col, e, sxx, syy, sxy, m),

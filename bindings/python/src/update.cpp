@@ -188,6 +188,12 @@ py::dict update(py::handle params, const py::dict& state, py::handle grad_v, py:
   for (py::ssize_t i = 0; i < h.size(); ++i)
     if (!(h.data()[i] > 0) || !std::isfinite(h.data()[i]))
       throw io::InputError("update: dt must be finite and > 0, got " + std::to_string(h.data()[i]));
+  for (py::ssize_t i = 0; i < L.size(); ++i)
+    if (!std::isfinite(L.data()[i])) {
+      std::string at = std::to_string(i / 3 % 3) + ", " + std::to_string(i % 3);
+      if (b.L_stride) at = std::to_string(i / 9) + ", " + at;
+      throw io::InputError("update: grad_v[" + at + "] = " + std::to_string(L.data()[i]) + " is not finite");
+    }
   b.L = L.data();
   b.dt = h.data();
 
@@ -248,7 +254,9 @@ threads 0: all cores.
 
 Returns a dict: the new state arrays (same keys), stress (n, 3, 3) total Cauchy stress, flags
 (n,) uint32 (granflow.FLAGS) and ok (n,) bool. A point whose update failed (flags in
-FLAG_ERROR_MASK) keeps its input state and gets a NaN stress.)");
+FLAG_ERROR_MASK) keeps its input state and gets a NaN stress; a point whose input state is
+inadmissible (NaN or inf anywhere, eps_pd < 0, e outside (0, 2.97), T < 0) fails so, with the
+flag "inadmissible". Bad arguments (shapes, keys, a non-finite grad_v or dt) raise InputError.)");
   py::dict flags;
   flags["tension_cutoff"] = info::kTensionCutoff;
   flags["pressure_floor"] = info::kPressureFloor;

@@ -67,6 +67,14 @@ def test_bad_override_gives_the_cli_message(cli):
     assert "whole number of cells" in str(e.value)
 
 
+def test_bad_stop_after_is_an_input_error():
+    for bad in (float("nan"), float("inf")):  # both ran the whole scene
+        with pytest.raises(granflow.InputError, match="stop_after = (nan|inf): must be a finite time"):
+            granflow.mpm(SCENE, overrides=SETS, stop_after=bad)
+    with pytest.raises(granflow.InputTypeError):
+        granflow.mpm(SCENE, overrides=SETS, stop_after="soon")
+
+
 def test_cuda_backend():
     if granflow.cuda_available():
         r = granflow.mpm(SCENE, overrides=SETS, stop_after=STOP, backend="cuda")

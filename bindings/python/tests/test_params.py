@@ -60,8 +60,22 @@ def test_bad_file_names_file_line_and_key(tmp_path, cli):
     assert str(e2.value) == msg.replace(str(bad), "text.toml")
 
 
+def test_degrees_read_back_as_given():
+    p = granflow.load_params("element_test")
+    for deg in (30, 33.3, 12.5, 0.1, 89.99, 35.26438968275465):
+        q = p.with_overrides(f"frictional.phi_c_deg={deg!r}")
+        assert q.to_dict()["frictional"]["phi_c_deg"] == deg
+        assert granflow.load_params(q.to_dict()).to_toml() == q.to_toml()
+    assert "\nphi_c_deg = 30\n" in granflow.parse_params(p.to_toml().replace("phi_c_deg =", "phi_c_deg = 30 #")).to_toml()
+
+
 def test_wrong_argument_types():
-    with pytest.raises(TypeError):
-        granflow.load_params(42)
-    with pytest.raises(TypeError):
-        granflow.load_params("element_test", overrides=[1])
+    # A wrong type raises InputTypeError: an InputError (every bad argument) and a TypeError.
+    for call in (lambda: granflow.load_params(42), lambda: granflow.load_params("element_test", overrides=[1]),
+                 lambda: granflow.load_params({"frictional": {"K0": object()}}),
+                 lambda: granflow.load_params("element_test").with_overrides(3.0),
+                 lambda: granflow.parse_params(5), lambda: granflow.element(7),
+                 lambda: granflow.calibrate(None)):
+        with pytest.raises(granflow.InputTypeError) as e:
+            call()
+        assert isinstance(e.value, granflow.InputError) and isinstance(e.value, TypeError)

@@ -103,6 +103,33 @@ def test_failed_point_keeps_its_state_and_gets_nan():
     assert np.isnan(out["stress"][1]).all() and out["T"][1] == -1.0 and np.isfinite(out["stress"][0]).all()
 
 
+NAN, INF = float("nan"), float("inf")
+
+
+@pytest.mark.parametrize("model,key,at,value", [
+    ("auto", "sigma_f", (1, 0, 0), NAN), ("auto", "sigma_f", (1, 2, 1), INF), ("auto", "sigma_f", (1, 1, 1), -INF),
+    ("auto", "eps_pd", 1, NAN), ("auto", "eps_pd", 1, INF), ("auto", "eps_pd", 1, -0.01),
+    ("auto", "e", 1, NAN), ("auto", "T", 1, NAN), ("auto", "T", 1, INF),
+    ("frictional", "sigma_f", (1, 0, 1), NAN), ("frictional", "eps_pd", 1, NAN), ("frictional", "e", 1, INF),
+    ("collisional", "e", 1, NAN), ("collisional", "e", 1, INF), ("collisional", "T", 1, INF),
+])
+def test_non_finite_or_inadmissible_state_fails_that_point(model, key, at, value):
+    keys = {"auto": ["sigma_f", "eps_pd", "e", "T"], "frictional": ["sigma_f", "eps_pd", "e"],
+            "collisional": ["e", "T"]}[model]
+    full = {"sigma_f": np.tile(-500.0 * np.eye(3), (2, 1, 1)), "eps_pd": np.zeros(2), "e": np.full(2, 0.95),
+            "T": np.full(2, 1e-6)}
+    state = {k: full[k] for k in keys}
+    state[key][at] = value
+    L = np.zeros((3, 3))
+    L[0, 1] = 10.0
+    out = granflow.update("element_test", state, L, 1e-4, model=model)
+    assert out["ok"].tolist() == [True, False]
+    assert out["flags"][1] & granflow.FLAGS["inadmissible"]
+    assert np.isnan(out["stress"][1]).all() and np.isfinite(out["stress"][0]).all()
+    for k in keys:  # the failed point keeps its state, the bad value included
+        np.testing.assert_array_equal(out[k][1], state[k][1], err_msg=k)
+
+
 @pytest.mark.parametrize("state,grad_v,dt,message", [
     ({"e": np.ones(2)}, np.zeros((3, 3)), 1e-3, "state is missing 'sigma_f'"),
     ({"sigma_f": np.zeros((2, 3, 3)), "eps_pd": np.zeros(2), "e": np.ones(2), "T": np.ones(3)}, np.zeros((3, 3)),
@@ -113,11 +140,26 @@ def test_failed_point_keeps_its_state_and_gets_nan():
      0.0, "dt must be finite and > 0"),
     ({"sigma_f": np.zeros((2, 3, 3)), "eps_pd": np.zeros(2), "e": np.ones(2), "T": np.ones(2), "s": np.ones(2)},
      np.zeros((3, 3)), 1e-3, "state key 's' is not part of the auto state"),
+    ({"sigma_f": np.zeros((2, 3, 3)), "eps_pd": np.zeros(2), "e": np.ones(2), "T": np.ones(2)},
+     np.array([[0, NAN, 0], [0, 0, 0], [0, 0, 0]]), 1e-3, "grad_v[0, 1] = nan is not finite"),
+    ({"sigma_f": np.zeros((2, 3, 3)), "eps_pd": np.zeros(2), "e": np.ones(2), "T": np.ones(2)},
+     np.where(np.arange(18).reshape(2, 3, 3) == 15, INF, 0.0), 1e-3, "grad_v[1, 2, 0] = inf is not finite"),
+    ({"sigma_f": np.zeros((2, 3, 3)), "eps_pd": np.zeros(2), "e": np.ones(2), "T": np.ones(2)}, np.zeros((3, 3)),
+     np.array([1e-3, NAN]), "dt must be finite and > 0"),
 ])
 def test_bad_arrays_are_input_errors(state, grad_v, dt, message):
     with pytest.raises(granflow.InputError) as e:
         granflow.update("element_test", state, grad_v, dt)
     assert message in str(e.value)
+
+
+def test_wrong_types_are_input_errors_and_type_errors():
+    for call in (lambda: granflow.update("element_test", {"e": "dense"}, np.zeros((3, 3)), 1e-3, model="collisional"),
+                 lambda: granflow.update("element_test", {"e": np.ones(1), "T": np.ones(1)}, np.zeros((3, 3)), 1e-3,
+                                         model="collisional", threads="all")):
+        with pytest.raises(granflow.InputError) as e:
+            call()
+        assert isinstance(e.value, TypeError) and isinstance(e.value, granflow.InputTypeError)
 
 
 def test_model_needs_its_table():

@@ -6,4 +6,5 @@
 #include "constitutive/frictional.hpp"
 #include "constitutive/models.hpp"
 #include "constitutive/params.hpp"
+#include "constitutive/state_check.hpp"
 #include "constitutive/tensor.hpp"

@@ -8,6 +8,7 @@
 
 #include "config.hpp"
 #include "params.hpp"
+#include "state_check.hpp"
 #include "tensor.hpp"
 
 namespace granflow {
@@ -267,7 +268,7 @@ GF_HDI UpdateInfo collisional_update(const CollisionalParams<S>& c, CollisionalS
   inf.substeps = 1;
   const Mat3<S> D = sym(grad_v);
   const S e1 = void_ratio_after(st.e, trace(D) * dt);
-  if (!(e1 > S(0)) || !(st.s >= S(0))) {
+  if (!(e1 > S(0)) || !std::isfinite(e1) || !admissible_sqrt_temperature(st.s)) {
     inf.flags |= info::kInadmissible;
     return inf;
   }

@@ -52,7 +52,7 @@ inline constexpr std::uint32_t kVsClamped = 1u << 2;       // V_s clamped below 
 inline constexpr std::uint32_t kSubstepLimit = 1u << 3;    // substep budget exhausted (result less accurate)
 inline constexpr std::uint32_t kReturnUnconverged = 1u << 6;  // return map unconverged; last iterate kept
 inline constexpr std::uint32_t kNonFinite = 1u << 4;       // a non-finite value was produced: state not updated
-inline constexpr std::uint32_t kInadmissible = 1u << 5;    // inadmissible input state (e <= 0, e >= 2.97, T < 0)
+inline constexpr std::uint32_t kInadmissible = 1u << 5;    // inadmissible input state (state_check.hpp)
 inline constexpr std::uint32_t kErrorMask = kNonFinite | kInadmissible;
 inline constexpr std::uint32_t kDeferred = 1u << 8;        // UpdatePart::ElasticOnly met a plastic step: state untouched
 }  // namespace info

@@ -100,13 +100,14 @@ struct PhaseTransitionModel {
   // functions at the new V_s, exact frozen-coefficient temperature update, then the sum.
   template <UpdatePart P = UpdatePart::Full>
   static GF_HDI UpdateInfo update(const Params& p, State& st, const Mat3In<S>& grad_v, S dt, Mat3<S>& stress) {
-    FrictionalState<S> fs{st.sigma_f, st.eps_pd, st.e};
-    UpdateInfo inf = frictional_update<L, I, P>(p.f, fs, grad_v, dt);
-    if (!inf.ok()) return inf;
-    if (!(st.s >= S(0))) {
+    UpdateInfo inf;
+    if (!admissible_sqrt_temperature(st.s)) {  // first: also where the frictional step would defer
       inf.flags |= info::kInadmissible;
       return inf;
     }
+    FrictionalState<S> fs{st.sigma_f, st.eps_pd, st.e};
+    inf = frictional_update<L, I, P>(p.f, fs, grad_v, dt);
+    if (!inf.ok()) return inf;
     const Mat3<S> D = sym(grad_v);
     const KineticCoefficients<S> kc = kinetic_coefficients<R>(p.c, S(1) / (S(1) + fs.e));
     if (kc.clamped) inf.flags |= info::kVsClamped;

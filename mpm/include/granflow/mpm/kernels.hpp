@@ -406,8 +406,9 @@ inline const char* status_field(std::uint32_t s) {
   switch (s & 0xffu) {
     case kLeftGrid: return "position (left the grid)";
     case kNonFiniteVelocity: return "velocity (non-finite)";
-    case kConstitutive: return (s >> 8) & info::kInadmissible ? "stress (inadmissible state: void ratio or T)"
-                                                              : "stress (non-finite constitutive update)";
+    case kConstitutive:
+      return (s >> 8) & info::kInadmissible ? "stress (inadmissible state: stress, eps_pd, void ratio or T)"
+                                            : "stress (non-finite constitutive update)";
     case kCompacted: return "void ratio (compacted to e <= 0 within one step: a blown-up velocity gradient)";
     case kDeferredPoint: return "none (plastic return deferred)";
     default: return "none";

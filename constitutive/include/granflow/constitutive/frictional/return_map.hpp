@@ -7,6 +7,7 @@
 
 #include "../config.hpp"
 #include "../params.hpp"
+#include "../state_check.hpp"
 #include "../tensor.hpp"
 #include "critical_state.hpp"
 #include "elasticity.hpp"
@@ -223,7 +224,7 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
   inf.substeps = 1;
   const S e0 = st.e;
   const S e1 = void_ratio_after(e0, trace(deps));
-  if (!(e0 > S(0)) || !(e0 < S(kVoidRatioMax)) || !(e1 > S(0)) || !(e1 < S(kVoidRatioMax))) {
+  if (frictional_state_fault(st.sigma, st.eps_pd, e0) != StateFault::None || !admissible_void_ratio(e1)) {
     inf.flags |= info::kInadmissible;
     return inf;
   }

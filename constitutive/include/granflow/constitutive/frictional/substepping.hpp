@@ -6,6 +6,7 @@
 
 #include "../config.hpp"
 #include "../params.hpp"
+#include "../state_check.hpp"
 #include "../tensor.hpp"
 #include "elasticity.hpp"
 #include "rate.hpp"
@@ -70,7 +71,7 @@ GF_HDI UpdateInfo frictional_increment(const FrictionalParams<S>& mp, Frictional
   UpdateInfo inf;
   const S e0 = st.e;
   const S e1 = void_ratio_after(e0, trace(deps));  // exact volumetric update (3.7)
-  if (!(e0 > S(0)) || !(e0 < S(kVoidRatioMax)) || !(e1 > S(0)) || !(e1 < S(kVoidRatioMax))) {
+  if (frictional_state_fault(st.sigma, st.eps_pd, e0) != StateFault::None || !admissible_void_ratio(e1)) {
     inf.flags |= info::kInadmissible;
     return inf;
   }
