@@ -19,27 +19,28 @@ namespace granflow::calibration {
 namespace {
 
 using test::Scratch;
-using test::kSets;
+using test::column_sets;
 using test::set_array;
 
-std::string job_text(const std::string& scene_dir) {
+std::string job_text(const std::string& scene_dir, double collapse = 0.3) {
   return "params = \"column_collapse\"\n"
          "[[free]]\nkey = \"frictional.phi_c_deg\"\nlower = 15.0\nupper = 25.0\n"
          "[[experiments]]\nkind = \"mpm_scene\"\nname = \"column\"\n"
          "scene = \"" + scene_dir + "/mpm/scenes/column_collapse_ci.toml\"\n"
-         "set = " + set_array() + "\nbackend = \"cpu\"\nprogress = false\n"
+         "set = " + set_array(column_sets(collapse)) + "\nbackend = \"cpu\"\nprogress = false\n"
          "[experiments.surface]\ndata = \"surface.csv\"\nsd = 0.004\n"
          "[experiments.front]\ndata = \"front.csv\"\n";
 }
 
-TEST(SceneExperiment, BatchPredictionsAreTheSingleRunsOfEachSet) {
+// A batch (one ensemble run of both sets) against a single run of the first, after `collapse` s.
+void expect_batch_equals_single_runs(double collapse) {
   Scratch s;
   std::string surface = "x,y\n0.001,0.1\n", front = "t,x\n";  // 0.001: before the first bin's centre
   for (int i = 0; i < 25; ++i) surface += std::to_string(0.01 + 0.02 * i) + ",0.05\n";  // beyond the deposit too
-  for (double t : {0.05, 0.1, 0.2, 0.3}) front += std::to_string(t) + ",0.3\n";
+  for (double f : {1.0 / 6, 1.0 / 3, 2.0 / 3, 1.0}) front += std::to_string(f * collapse) + ",0.3\n";
   s.write("surface.csv", surface);
   s.write("front.csv", front);
-  const CalibrationJob job = load_job(s.write("job.toml", job_text(test::source_dir())));
+  const CalibrationJob job = load_job(s.write("job.toml", job_text(test::source_dir(), collapse)));
   ASSERT_EQ(job.experiments.size(), 1u);
   const Experiment& e = *job.experiments[0];
   ASSERT_TRUE(e.batched());
@@ -55,7 +56,7 @@ TEST(SceneExperiment, BatchPredictionsAreTheSingleRunsOfEachSet) {
 
   // set a alone, as granflow mpm runs it
   mpm::SceneOverrides ov;
-  for (const char* x : kSets) ov.sets.push_back(x);
+  ov.sets = column_sets(collapse);
   const mpm::Scene sc = mpm::load_scene(test::source_dir() + "/mpm/scenes/column_collapse_ci.toml", ov);
   const mpm::SceneSetup su = mpm::make_setup(sc);
   auto r = mpm::make_cpu_runner(su);
@@ -78,11 +79,16 @@ TEST(SceneExperiment, BatchPredictionsAreTheSingleRunsOfEachSet) {
     EXPECT_NEAR(batch[0].values[0][i], expect, 1e-12) << "x = " << x[i];
   }
   EXPECT_EQ(batch[0].values[0].back(), 0.0);  // 0.49 m lies beyond the 20 mm column's deposit
-  // the front at t_flow = 0.3 is the run's final run-out
+  // the front at the end of the collapse is the run's final run-out
   EXPECT_NEAR(batch[0].values[1].back(), rs.final.runout, 1e-12);
   // a higher friction angle: a shorter run-out
   EXPECT_LT(batch[1].values[1].back(), batch[0].values[1].back());
 }
+
+TEST(SceneExperiment, BatchPredictionsAreTheSingleRunsOfEachSet) { expect_batch_equals_single_runs(0.3); }
+
+// The same after 0.12 s of collapse (900 steps against 1800): the sanitizer stage's case.
+TEST(SceneExperiment, BatchPredictionsCiSizedAreTheSingleRunsOfEachSet) { expect_batch_equals_single_runs(0.12); }
 
 TEST(SceneExperiment, JobErrorsNameTheFileAndKey) {
   Scratch s;
