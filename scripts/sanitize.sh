@@ -2,7 +2,7 @@
 # Builds granflow and its tests with AddressSanitizer + UndefinedBehaviorSanitizer
 # (GRANFLOW_SANITIZE=ON, CUDA off; no Python module, no Fortran driver) in build-asan/ and runs
 # every test with ctest but the long ones that tests/plain_only.txt names with the shorter test
-# that runs their code here (docs/reliability.md, "CI stages").
+# that runs their code here (docs/reliability_ci.md).
 # Any sanitizer report fails the run (-fno-sanitize-recover=all; halt_on_error).
 #   scripts/sanitize.sh            # configure, build, test
 #   JOBS=4 scripts/sanitize.sh     # more build/test jobs
