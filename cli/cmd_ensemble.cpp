@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -183,6 +184,17 @@ void finish(const EnsembleCmd& o, const mpm::EnsembleDesign& design, const mpm::
     }
   }
   folder.complete(failed == 0 ? "complete" : "complete; " + std::to_string(failed) + " members failed (summary.csv)");
+  // Exit status (docs/mpm_ensembles.md): every member failed: 1, as a failed single run; some: 0
+  // with a warning, the others' results stand.
+  if (failed == 0) return;
+  long first = 0;
+  while (s.members[first].ok) ++first;
+  const std::string why = "member " + std::to_string(first) + ": " + s.members[first].message;
+  if (failed == static_cast<long>(s.members.size()))
+    throw std::runtime_error("all " + std::to_string(failed) + " members failed (" + why + "); " + out +
+                             "/summary.csv has each member's message");
+  std::fprintf(stderr, "granflow: warning: %ld of %zu members failed (%s); %s/summary.csv has each member's status\n",
+               failed, s.members.size(), why.c_str(), out.c_str());
 }
 
 // Several MPI ranks (docs/mpm_ensembles.md, "Several processes (MPI)"): rank r runs the

@@ -41,14 +41,17 @@ std::set<std::string> listing(const fs::path& dir) {
   return s;
 }
 
-Outcome run_case(const fs::path& dir, const std::vector<std::string>& argv) {
+Outcome run_case(const fs::path& dir, const std::vector<std::string>& argv,
+                 const std::vector<std::pair<std::string, std::string>>& env = {}) {
   std::vector<std::string> args = argv;
   std::string program = GRANFLOW_BINARY;
   if (!args.empty() && args.front() == "@csv") {
     program = GRANFLOW_CSV_PROBE;
     args.erase(args.begin());
   }
-  return run_in(dir.string(), program, args);
+  ChildSetup setup;
+  setup.env = env;
+  return run_in(dir.string(), program, args, 120.0, setup);
 }
 
 std::vector<std::string> message_lines(const std::string& err) {
@@ -74,7 +77,7 @@ TEST_P(BadInput, OneClearMessageNoCrashNoOutput) {
     std::ofstream(dir / name, std::ios::binary) << text;
   }
   const std::set<std::string> before = listing(dir);
-  const Outcome o = run_case(dir, c.argv);
+  const Outcome o = run_case(dir, c.argv, c.env);
   std::string cmd;
   for (const auto& a : c.argv) cmd += " " + a;
   SCOPED_TRACE("command:" + cmd + "\nstderr: " + o.err);
@@ -139,6 +142,51 @@ TEST(BadInputControl, DefaultSceneAndJobRun) {
   o = run_case(dir, {"calibrate", "job.toml", "--out", "fit", "--no-plot", "--quiet", "--evaluate"});
   EXPECT_EQ(o.exit_code, 0) << o.err;
   EXPECT_TRUE(fs::exists(dir / "fit"));
+}
+
+// Ensembles of the 20 mm CI column for 0.04 s (collisional.d = 10 m fails within a few steps),
+// one OpenMP thread, in `dir`; returns the outcome.
+Outcome run_list_design(const fs::path& dir, const std::string& values, const std::string& out,
+                        const std::vector<std::string>& extra = {}) {
+  std::ofstream(dir / "d.toml") << "[design]\nmethod = \"list\"\n[[vary]]\nkey = \"collisional.d\"\nvalues = " << values << "\n";
+  std::vector<std::string> args = {
+      "ensemble", GRANFLOW_SOURCE_DIR "/mpm/scenes/column_collapse_ci.toml", "d.toml", "--no-png", "--quiet",
+      "--set", "grid.h=0.02", "--set", "grid.size=[0.6, 0.16]", "--set", "time.dt=2e-4",
+      "--set", "stage[0].duration=0.02", "--set", "stage[1].duration=0.02", "--set", "output.times=[0.02]",
+      "--out", out};
+  args.insert(args.end(), extra.begin(), extra.end());
+  ChildSetup one_thread;
+  one_thread.env = {{"OMP_NUM_THREADS", "1"}};
+  return run_in(dir.string(), GRANFLOW_BINARY, args, 120.0, one_thread);
+}
+
+std::string warning_lines(const std::string& err) {
+  std::string w;
+  for (const auto& l : message_lines(err))
+    if (l.rfind("granflow: warning: ", 0) == 0) w += l + "\n";
+  return w;
+}
+
+// Exit status of an ensemble whose members fail (docs/mpm_ensembles.md): all failed is a failed
+// run (1, one error line naming a member and summary.csv; the folder is complete); some failed
+// is 0 with one warning line, the others' results stand.
+TEST(EnsembleExit, AllMembersFailedIsAFailureSomeIsAWarning) {
+  const fs::path dir = fresh_dir("ensemble_exit");
+  Outcome o = run_list_design(dir, "[10.0, 20.0]", "all");
+  EXPECT_EQ(o.exit_code, 1) << o.err;
+  const std::vector<std::string> lines = message_lines(o.err);
+  ASSERT_FALSE(lines.empty());
+  EXPECT_EQ(lines.back().rfind("granflow: error: all 2 members failed (member 0: particle ", 0), 0u) << o.err;
+  EXPECT_NE(lines.back().find("all/summary.csv"), std::string::npos) << o.err;
+  EXPECT_TRUE(fs::exists(dir / "all" / "granflow.manifest"));  // the folder is complete: it says what failed
+
+  o = run_list_design(dir, "[10.0, 0.00125]", "some");
+  EXPECT_EQ(o.exit_code, 0) << o.err;
+  const std::string w = warning_lines(o.err);
+  EXPECT_EQ(w.rfind("granflow: warning: 1 of 2 members failed (member 0: particle ", 0), 0u) << o.err;
+  EXPECT_NE(w.find("some/summary.csv"), std::string::npos) << o.err;
+  EXPECT_EQ(std::count(w.begin(), w.end(), '\n'), 1) << w;
+  EXPECT_NE(slurp((dir / "some" / "summary.csv").string()).find("\n1,0.00125,ok,"), std::string::npos);
 }
 
 }  // namespace
