@@ -208,8 +208,15 @@ void apply_override(ParameterSet& set, const std::string& assignment, const std:
       a = b + 1;
     }
     if (!tbl) throw InputError(who + "the set has no [" + section + "] table");
-    const std::string line = "v = " + value;
-    toml::table parsed = toml::parse(std::string_view(line), std::string_view("<override>"));
+    // A bare word is a string, as for scene keys (mpm/src/scene_file.cpp parse_value).
+    const bool bare_word = !value.empty() && value.find_first_of("\"'[]{}=#\\ \t\r\n") == std::string::npos;
+    toml::table parsed;
+    try {
+      parsed = toml::parse(std::string_view("v = " + value), std::string_view("<override>"));
+    } catch (const toml::parse_error&) {
+      if (!bare_word) throw;
+      parsed = toml::parse(std::string_view("v = \"" + value + "\""), std::string_view("<override>"));
+    }
     if (section == "collisional" && (key == "e_sd" || key == "V_sd")) {
       tbl->erase("e_sd");
       tbl->erase("V_sd");

@@ -235,6 +235,7 @@ std::vector<Case> all_cases() {
       {"set_nan", {}, el_set("frictional.K0=nan"), kInput, {"'frictional.K0'", "finite"}},
       {"set_string_value", {}, el_set("collisional.eps_n=\"0.5\""), kInput, {"'collisional.eps_n'", "expected a number, got a string"}},
       {"set_empty_value", {}, el_set("frictional.K0="), kInput, {"--set 'frictional.K0='"}},
+      {"set_bare_word_is_a_string", {}, el_set("frictional.K0=high"), kInput, {"--set 'frictional.K0=high': 'frictional.K0': expected a number, got a string"}},
       {"set_in_test_file", {{"t.toml", edit(kTest, "[test]", "overrides = [\"frictional.xi=-1\"]\n[test]")}}, kEl, kInput, {"t.toml: overrides 'frictional.xi=-1': 'frictional.xi': must be > 0, got -1"}},
 
       // ---- CLI arguments and output files ---------------------------------------------------
