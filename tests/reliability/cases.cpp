@@ -340,6 +340,7 @@ std::vector<Case> all_cases() {
       {"ens_duplicate_key", {{"d.toml", design("frictional.phi_c_deg", "range = [18.0, 22.0]") + "[[vary]]\nkey = \"frictional.phi_c_deg\"\nrange = [19.0, 20.0]\n"}}, kEns, kInput, {"d.toml:8", "'frictional.phi_c_deg' is varied twice", "at line 4"}},
       {"ens_too_large_for_memory", {{"d.toml", edit(design("frictional.phi_c_deg", "range = [18.0, 22.0]"), "members = 4", "members = 100000")}}, ens_with({"--set", "grid.h=0.001", "--set", "time.dt=1e-5"}), kInput, {"d.toml: 100000 members need", "at most", "members fit"}},
       {"ens_members_differ_in_grid", {{"d.toml", "[design]\nmethod = \"list\"\n[[vary]]\nkey = \"grid.h\"\nvalues = [0.02, 0.025]\n"}}, kEns, kInput, {"d.toml: grid: member 1 differs from member 0 in the grid", "members may differ in"}},
+      {"ens_range_typo", {{"d.toml", design("frictional.phi_c_deg", "rnage = [18.0, 22.0]")}}, kEns, kInput, {"d.toml:4", "'vary[0].range': required key is missing", "'vary[0].rnage'", "a typo?"}},
       {"bench_mpm_set_unknown_table", {}, {"bench", "mpm", "scene.toml", "--set", "gird.h=0.01"}, kInput, {"scene.toml: --set 'gird.h=0.01': unknown key 'gird'"}},
   };
 }
