@@ -151,6 +151,7 @@ std::vector<DataGroup> select_data(const DataSelection& sel, const std::string& 
       c.data_column = sel.targets[t].first;
       c.model_output = sel.targets[t].second;
       c.abscissa = sel.abscissa;
+      c.file = sel.file;
       c.weight = sel.weight * sel.target_weights[t];
       if (t < sel.target_sd.size()) c.sd = sel.target_sd[t];
       const auto& y = table.column(c.data_column);

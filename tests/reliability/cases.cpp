@@ -107,6 +107,15 @@ const std::string kDem =
     "0.40,0.70,0.31,0.33,0.7\n"                   // 4
     "0.50,1.84,0.81,0.25,0.7\n";                  // 5
 
+// An mpm_scene calibration of scene.toml (one stage of 0.002 s) against front.csv.
+const std::string kSceneJob =
+    "params = \"column_collapse\"\n"                                                   // 1
+    "[[free]]\nkey = \"frictional.phi_c_deg\"\nlower = 15.0\nupper = 25.0\n"           // 2-5
+    "[algorithm]\nglobal = \"none\"\nlocal_evaluations = 2\n"                         // 6-8
+    "[[experiments]]\nkind = \"mpm_scene\"\nname = \"column\"\nscene = \"scene.toml\"\n"  // 9-12
+    "backend = \"cpu\"\nprogress = false\n"                                            // 13-14
+    "[experiments.front]\ndata = \"front.csv\"\n";                                     // 15-16
+
 // Shorthands.
 std::string P(const std::string& from, const std::string& to) { return edit(kParams, from, to); }
 std::string T(const std::string& from, const std::string& to) { return edit(kTest, from, to); }
@@ -341,6 +350,7 @@ std::vector<Case> all_cases() {
       {"ens_too_large_for_memory", {{"d.toml", edit(design("frictional.phi_c_deg", "range = [18.0, 22.0]"), "members = 4", "members = 100000")}}, ens_with({"--set", "grid.h=0.001", "--set", "time.dt=1e-5"}), kInput, {"d.toml: 100000 members need", "at most", "members fit"}},
       {"ens_members_differ_in_grid", {{"d.toml", "[design]\nmethod = \"list\"\n[[vary]]\nkey = \"grid.h\"\nvalues = [0.02, 0.025]\n"}}, kEns, kInput, {"d.toml: grid: member 1 differs from member 0 in the grid", "members may differ in"}},
       {"ens_range_typo", {{"d.toml", design("frictional.phi_c_deg", "rnage = [18.0, 22.0]")}}, kEns, kInput, {"d.toml:4", "'vary[0].range': required key is missing", "'vary[0].rnage'", "a typo?"}},
+      {"calib_scene_front_past_end", {{"job.toml", kSceneJob}, {"front.csv", "t,x\n0,0.1\n0.001,0.1\n0.003,0.1\n"}}, kCal, kInput, {"front.csv:4", "t = 0.003 s", "past the end of the run", "0.002 s after the release"}},
       {"bench_mpm_set_unknown_table", {}, {"bench", "mpm", "scene.toml", "--set", "gird.h=0.01"}, kInput, {"scene.toml: --set 'gird.h=0.01': unknown key 'gird'"}},
   };
 }

@@ -28,6 +28,7 @@ struct Curve {
   std::vector<int> branch;
   double reversal_tolerance = 0;
   std::vector<long> lines;   // file line of each point (first of averaged duplicates)
+  std::string file;          // the data file the points come from
   double weight = 1.0;
   // Standard deviation of the data in data units for the Gaussian likelihood of the ensemble
   // method (NaN: the job's default for its kind; docs/calibration.md, "Uncertainty").
