@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -20,6 +21,14 @@ std::string where(const std::string& file, long line, long column) {
   os << ": ";
   return os.str();
 }
+
+namespace {
+void default_warning_sink(const std::string& line) { std::fprintf(stderr, "granflow: warning: %s\n", line.c_str()); }
+void (*g_warning_sink)(const std::string&) = default_warning_sink;
+}  // namespace
+
+void warn(const std::string& line) { g_warning_sink(line); }
+void set_warning_sink(void (*sink)(const std::string&)) { g_warning_sink = sink ? sink : default_warning_sink; }
 
 bool Bounds::contains(double v) const {
   if (!std::isfinite(v)) return false;

@@ -52,6 +52,38 @@ TEST_F(BadInput, GoodJobLoads) {
 
 // ---- data CSV ------------------------------------------------------------------------
 
+// Strains are fractions: a strain column (the abscissa with quantity = "strain", or a target
+// mapped to a strain output) above 1 in magnitude gets a warning naming the file, line and column
+// (per cent?); one absurd value (1e300) is an error naming its line, not a strain in per cent.
+TEST_F(BadInput, StrainColumnsOutsideAPlausibleRangeAreNamed) {
+  static std::vector<std::string> warnings;
+  warnings.clear();
+  io::set_warning_sink([](const std::string& l) { warnings.push_back(l); });
+  DataSelection sel;
+  sel.abscissa = "eps_a";
+  sel.quantity = "strain";
+  sel.targets = {{"q", "q"}, {"ev", "eps_v"}};
+  sel.target_weights = {1.0, 1.0};
+  sel.file = dir.write("fraction.csv", "eps_a,q,ev\n0,0,0\n0.1,100,0.01\n0.26,150,0.02\n");
+  select_data(sel, "t");
+  EXPECT_TRUE(warnings.empty()) << warnings.front();
+  sel.file = dir.write("percent.csv", "eps_a,q,ev\n0,0,0\n10,100,1\n26,150,2\n");
+  select_data(sel, "t");
+  ASSERT_EQ(warnings.size(), 2u);
+  for (const char* part : {"percent.csv:4", "column 'eps_a'", "26", "per cent"})
+    EXPECT_NE(warnings[0].find(part), std::string::npos) << warnings[0];
+  for (const char* part : {"percent.csv:4", "column 'ev'", "strain"})
+    EXPECT_NE(warnings[1].find(part), std::string::npos) << warnings[1];
+  warnings.clear();
+  sel.file = dir.write("stray.csv", "eps_a,q,ev\n0,0,0\n0.1,100,1e300\n0.26,150,0.02\n");
+  expect_input_error([&] { select_data(sel, "t"); }, {"stray.csv:3", "column 'ev'", "1e+300", "not a strain"});
+  // not a strain: q may be anything
+  sel.file = dir.write("stress.csv", "eps_a,q,ev\n0,0,0\n0.1,1e5,0.01\n");
+  select_data(sel, "t");
+  EXPECT_TRUE(warnings.empty());
+  io::set_warning_sink(nullptr);
+}
+
 // Spreadsheet programs write a UTF-8 byte-order mark before the header.
 TEST_F(BadInput, CsvByteOrderMarkBeforeTheHeaderIsSkipped) {
   const CalibrationJob j = load_job(job(std::string("\xEF\xBB\xBF") + kGoodCsv, job_text()));

@@ -286,6 +286,7 @@ std::vector<Case> all_cases() {
       {"lab_only_comments", {{"lab.csv", "# nothing measured\n"}}, kLabArgs, kInput, {"lab.csv: the file is empty"}},
       {"lab_inf", {{"lab.csv", "strain,q\n0,0\n0.01,inf\n"}}, kLabArgs, kInput, {"lab.csv:3", "not a finite number"}},
       {"lab_truncated_row", {{"lab.csv", "strain,q\n0,0\n0.01"}}, kLabArgs, kInput, {"lab.csv:3"}},
+      {"lab_stray_strain_in_data_programme", {{"t.toml", "params = \"p.toml\"\n[test]\npath = \"drained_triaxial\"\nprogramme = \"data\"\ndata_file = \"lab.csv\"\ncontrol_column = \"strain\"\nrate = 1.0\ne0 = 0.99\nsigma_v0 = 500.0\n"}, {"lab.csv", "strain,q\n0,0\n0.01,120\n1e300,130\n"}}, kEl, kInput, {"lab.csv:4", "column 'strain': 1e+300 is not a strain"}},
       {"lab_file_missing", {{"lab.csv", kAbsent}}, kLabArgs, kInput, {"lab.csv", "cannot open file"}},
 
       // ---- calibration job (granflow calibrate) ----------------------------------------------
