@@ -1,4 +1,5 @@
 #include <granflow/io/parameter_set.hpp>
+#include <granflow/io/share.hpp>
 
 #include <algorithm>
 #include <cctype>
@@ -169,10 +170,17 @@ ParameterSet load_parameter_set(const std::string& name_or_path) {
       path = candidate;
     } else {
       std::string known;
-      for (const auto& e : std::filesystem::directory_iterator(data_directory() + "/params", ec))
+      const std::string params = data_directory() + "/params";
+      for (const auto& e : std::filesystem::directory_iterator(params, ec))
         if (e.path().extension() == ".toml") known += (known.empty() ? "" : ", ") + e.path().stem().string();
+      // no shipped set at all: the data folder is not where it was looked for
+      const std::string none = "; the shipped sets are looked for in " + params + ", which " +
+                               (std::filesystem::is_directory(params, ec) ? "holds none" : "does not exist") + " (" +
+                               data_directory_origin() +
+                               "): set GRANFLOW_DATA_DIR to the absolute path of the shipped data folder "
+                               "(docs/install.md)";
       throw InputError(where(name_or_path) + "no such file, and no parameter set of that name" +
-                       (known.empty() ? std::string() : " (shipped sets: " + known + ")"));
+                       (known.empty() ? none : " (shipped sets: " + known + ")"));
     }
   }
   const toml::table doc = TomlTable::parse_file(path);
