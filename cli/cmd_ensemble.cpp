@@ -307,6 +307,10 @@ void run_ensemble_ranks(const EnsembleCmd& o) {
 }
 
 void run_ensemble_cmd(const EnsembleCmd& o) {
+  require_backend(o.backend);
+  if (o.backend != "cuda" && o.devices > 0)
+    io::warn("--devices " + std::to_string(o.devices) +
+             ": the CPU twin runs every member in this process (--devices spreads them over GPUs with --backend cuda)");
   if (mpm::ranks().size() > 1) return run_ensemble_ranks(o);
   const mpm::EnsembleDesign design = mpm::load_design(o.design);
   check_vary_keys(o, design);

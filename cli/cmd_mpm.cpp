@@ -91,6 +91,12 @@ std::unique_ptr<mpm::Runner> make_runner(const mpm::SceneSetup& su, const std::s
   return backend == "cuda" ? mpm::make_cuda_runner(su, co) : mpm::make_cpu_runner(su);
 }
 
+void require_backend(const std::string& backend) {
+  if (backend != "cuda") return;
+  if (const std::string why = mpm::cuda_unavailable_reason(); !why.empty())
+    throw io::InputError("--backend cuda: " + why + "; use --backend cpu");
+}
+
 std::string locate_script(const std::string& name) {
   return io::script_path(name);
 }
@@ -173,6 +179,7 @@ std::string restart_command(const MpmOptions& o, const std::string& out) {
 }
 
 void run_mpm(const MpmOptions& o) {
+  require_backend(o.backend);
   const mpm::SceneSetup su = setup_from_file(o.scene, o.overrides, o.precision);
   std::string out = o.out;
   if (out.empty()) out = "mpm_out/" + fs::path(o.scene).stem().string();
@@ -296,6 +303,7 @@ struct BenchOptions {
 
 void bench_mpm(const BenchOptions& o) {
   using Clock = std::chrono::steady_clock;
+  require_backend(o.backend);
   const auto t_setup = Clock::now();
   const mpm::SceneSetup su = setup_from_file(o.scene, o.overrides, o.precision);
   const double setup_s = std::chrono::duration<double>(Clock::now() - t_setup).count();

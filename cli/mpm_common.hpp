@@ -55,6 +55,9 @@ struct CudaFlags {
 
 std::unique_ptr<mpm::Runner> make_runner(const mpm::SceneSetup& su, const std::string& backend,
                                          const CudaFlags& flags);
+// --backend cuda where it cannot run: an InputError, the same for every MPM command, before
+// anything is set up or written.
+void require_backend(const std::string& backend);
 
 // scripts/NAME from the working directory or beside the installed data; "" when not found.
 std::string locate_script(const std::string& name);

@@ -189,4 +189,15 @@ TEST(EnsembleExit, AllMembersFailedIsAFailureSomeIsAWarning) {
   EXPECT_NE(slurp((dir / "some" / "summary.csv").string()).find("\n1,0.00125,ok,"), std::string::npos);
 }
 
+// --devices N with the CPU twin changes nothing: one warning line says so.
+TEST(EnsembleExit, DevicesWithTheCpuTwinIsSaid) {
+  const fs::path dir = fresh_dir("ensemble_devices");
+  const Outcome o = run_list_design(dir, "[0.00125]", "dev", {"--devices", "2"});
+  EXPECT_EQ(o.exit_code, 0) << o.err;
+  EXPECT_EQ(warning_lines(o.err),
+            "granflow: warning: --devices 2: the CPU twin runs every member in this process (--devices spreads "
+            "them over GPUs with --backend cuda)\n")
+      << o.err;
+}
+
 }  // namespace
