@@ -1,6 +1,7 @@
 // granflow mpm <scene.toml>: run a scene (CPU twin or CUDA) and write VTU/PVD frames, CSV
 // series, the final free surface and PNG snapshots; granflow bench mpm: per-phase timings.
 #include <signal.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -103,15 +104,35 @@ std::string locate_script(const std::string& name) {
 
 volatile std::sig_atomic_t g_signal = 0;
 namespace {
-void on_signal(int sig) { g_signal = sig; }
+volatile std::sig_atomic_t g_deferred = 0;
+// The first signal asks the loops to stop; a second stops at once (the default action), unless
+// a checkpoint is being written: then it waits for the write (a third does not).
+void on_signal(int sig) {
+  if (g_signal == 0) {
+    g_signal = sig;
+    return;
+  }
+  if (io::critical_write_active() && g_deferred == 0) {
+    g_deferred = sig;
+    static const char note[] = "\ngranflow: finishing the checkpoint first (once more stops at once)\n";
+    [[maybe_unused]] const ssize_t n = ::write(STDERR_FILENO, note, sizeof note - 1);
+    return;
+  }
+  struct sigaction dfl {};
+  dfl.sa_handler = SIG_DFL;
+  sigemptyset(&dfl.sa_mask);
+  ::sigaction(sig, &dfl, nullptr);
+  ::raise(sig);
+}
 }  // namespace
 
 SignalGuard::SignalGuard() {
   g_signal = 0;
+  g_deferred = 0;
   struct sigaction sa {};
   sa.sa_handler = on_signal;
   sigemptyset(&sa.sa_mask);
-  sa.sa_flags = SA_RESTART | SA_RESETHAND;
+  sa.sa_flags = SA_RESTART;
   sigaction(SIGINT, &sa, &old_int_);
   sigaction(SIGTERM, &sa, &old_term_);
 }
