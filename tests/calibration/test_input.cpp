@@ -52,6 +52,24 @@ TEST_F(BadInput, GoodJobLoads) {
 
 // ---- data CSV ------------------------------------------------------------------------
 
+// The abscissa window [lo, hi] keeps the rows at both bounds, the one at lo included.
+TEST_F(BadInput, DataWindowKeepsTheRowsAtItsBounds) {
+  DataSelection sel;
+  sel.file = dir.write("w.csv", "strain,q\n0.01,1\n0.02,2\n0.03,3\n0.04,4\n");
+  sel.abscissa = "strain";
+  sel.quantity = "strain";
+  sel.targets = {{"q", "q"}};
+  sel.target_weights = {1.0};
+  sel.x_lo = 0.02;
+  sel.x_hi = 0.03;
+  const std::vector<DataGroup> g = select_data(sel, "w");
+  ASSERT_EQ(g.size(), 1u);
+  ASSERT_EQ(g[0].curves.size(), 1u);
+  EXPECT_EQ(g[0].curves[0].x, (std::vector<double>{0.02, 0.03}));
+  EXPECT_EQ(g[0].curves[0].y, (std::vector<double>{2, 3}));
+  EXPECT_EQ(g[0].curves[0].lines, (std::vector<long>{3, 4}));
+}
+
 // Strains are fractions: a strain column (the abscissa with quantity = "strain", or a target
 // mapped to a strain output) above 1 in magnitude gets a warning naming the file, line and column
 // (per cent?); one absurd value (1e300) is an error naming its line, not a strain in per cent.

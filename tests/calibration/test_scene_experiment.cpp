@@ -92,6 +92,42 @@ TEST(SceneExperiment, BatchPredictionsAreTheSingleRunsOfEachSet) {
   EXPECT_LT(batch[1].values[1].back(), batch[0].values[1].back());
 }
 
+// A front is the run-out against the time since the release (the last stage's start, here
+// 0.06 s): its model values at t are the single run's run-out at 0.06 s + t, not at t.
+TEST(SceneExperiment, FrontIsMeasuredAgainstTheTimeSinceTheRelease) {
+  Scratch s;
+  s.write("surface.csv", "x,y\n0.1,0.05\n");
+  s.write("front.csv", "t,x\n0.02,0.3\n0.05,0.3\n0.1,0.3\n");
+  std::string text = job_text(test::source_dir());
+  text.replace(text.find("stage[1].duration=0.3"), 21, "stage[1].duration=0.1");
+  text.replace(text.find("output.times=[0.1, 0.3]"), 23, "output.times=[0.1]");
+  const CalibrationJob job = load_job(s.write("job.toml", text));
+  const std::vector<Prediction> p = job.experiments[0]->predict_batch({job.start});
+  ASSERT_TRUE(p[0].ok) << p[0].error;
+  mpm::SceneOverrides ov;
+  for (const char* x : kSets) ov.sets.push_back(x);
+  ov.sets.push_back("stage[1].duration=0.1");
+  ov.sets.push_back("output.times=[0.1]");
+  const mpm::SceneSetup su = mpm::make_setup(mpm::load_scene(test::source_dir() + "/mpm/scenes/column_collapse_ci.toml", ov));
+  auto r = mpm::make_cpu_runner(su);
+  mpm::RunOptions ro;
+  ro.progress = false;
+  const mpm::RunSummary rs = mpm::run(su, *r, ro);
+  ASSERT_TRUE(rs.ok) << rs.message;
+  auto runout_at = [&](double t) {  // the sample at time t of the run
+    for (const auto& row : rs.series)
+      if (std::fabs(row.t - t) < 1e-9) return row.m.runout;
+    ADD_FAILURE() << "no sample at t = " << t;
+    return std::nan("");
+  };
+  const std::vector<double> t_data = {0.02, 0.05, 0.1};
+  ASSERT_EQ(p[0].values[1].size(), t_data.size());
+  for (size_t i = 0; i < t_data.size(); ++i)
+    EXPECT_NEAR(p[0].values[1][i], runout_at(0.06 + t_data[i]), 1e-12) << "t = " << t_data[i];
+  // the column moves after the release: against the run's own time the values would differ
+  EXPECT_GT(runout_at(0.16), runout_at(0.1) + 0.01);
+}
+
 TEST(SceneExperiment, JobErrorsNameTheFileAndKey) {
   Scratch s;
   s.write("surface.csv", "x,y\n0.1,0.05\n0.05,0.04\n");
