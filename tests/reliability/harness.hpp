@@ -43,6 +43,7 @@ struct Outcome {
 struct ChildSetup {
   std::vector<std::pair<std::string, std::string>> env;
   long file_size_limit = -1;  // bytes; < 0: none
+  long address_space_limit = -1;  // bytes (RLIMIT_AS); < 0: none
   std::string tag = "";       // stdout/stderr go to dir/../stdout<tag>.txt (runs at the same time)
 };
 

@@ -3,12 +3,23 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
 
 #include "harness.hpp"
+
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+
+#include <chrono>
+#include <thread>
+
+#include <granflow/mpm/memory.hpp>
+#include <granflow/mpm/scene_file.hpp>
 
 namespace reliability {
 std::vector<Case> all_cases();
@@ -198,6 +209,106 @@ TEST(EnsembleExit, DevicesWithTheCpuTwinIsSaid) {
             "granflow: warning: --devices 2: the CPU twin runs every member in this process (--devices spreads "
             "them over GPUs with --backend cuda)\n")
       << o.err;
+}
+
+// The 20 mm CI column's overrides, and a design of n members varying phi_c.
+const std::vector<std::string> kColumn20 = {"--set", "grid.h=0.02", "--set", "grid.size=[0.6, 0.16]",
+                                            "--set", "time.dt=2e-4"};
+std::string phi_design(long n) {
+  return "[design]\nmethod = \"lhs\"\nmembers = " + std::to_string(n) +
+         "\n[[vary]]\nkey = \"frictional.phi_c_deg\"\nrange = [18.0, 22.0]\n";
+}
+std::vector<std::string> ensemble_args(const std::string& out, std::vector<std::string> extra) {
+  std::vector<std::string> a = {"ensemble", GRANFLOW_SOURCE_DIR "/mpm/scenes/column_collapse_ci.toml", "d.toml",
+                                "--out", out, "--no-png", "--quiet"};
+  a.insert(a.end(), kColumn20.begin(), kColumn20.end());
+  a.insert(a.end(), extra.begin(), extra.end());
+  return a;
+}
+
+// Ctrl-C stops an ensemble within a second or two however long its spans could be: 64 members
+// whose consolidation (10,000 steps) has no sample in it, so one span could hold all of it (tens
+// of seconds on one core). It exits 130 with the series so far.
+TEST(EnsembleProcess, SigintStopsWithinASecondOrTwo) {
+  const fs::path dir = fresh_dir("ensemble_sigint");
+  std::ofstream(dir / "d.toml") << phi_design(64);
+  ChildSetup one_thread;
+  one_thread.env = {{"OMP_NUM_THREADS", "1"}};
+  const int pid = start_in(dir.string(), GRANFLOW_BINARY,
+                           ensemble_args("o", {"--set", "stage[0].duration=2", "--set", "output.series_dt=5"}),
+                           one_thread);
+  const auto t0 = std::chrono::steady_clock::now();
+  while (!fs::exists(dir / "o" / "member_0063") && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60))
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // well into the first stage's steps
+  const auto sent = std::chrono::steady_clock::now();
+  ::kill(pid, SIGINT);
+  const Outcome o = finish(pid, dir.string());
+  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - sent).count();
+  EXPECT_FALSE(o.signaled) << o.err;
+  EXPECT_EQ(o.exit_code, 130) << o.err;
+  EXPECT_LT(took, 2.0) << "stopping took " << took << " s";
+  EXPECT_NE(o.err.find("granflow: interrupted at t = "), std::string::npos) << o.err;
+  EXPECT_TRUE(fs::exists(dir / "o" / "member_0063" / "runout.csv"));
+}
+
+// The memory check's figure per member is at least what a member adds to the process's peak
+// (measured: 16 and 144 members of the 20 mm column, one step a stage) and not far above it.
+TEST(EnsembleProcess, MemoryCheckCoversWhatAMemberTakes) {
+  const fs::path dir = fresh_dir("ensemble_memory");
+  auto peak_kib = [&](long n) {
+    std::ofstream(dir / "d.toml") << phi_design(n);
+    ChildSetup one_thread;
+    one_thread.env = {{"OMP_NUM_THREADS", "1"}};
+    const std::string out = "o" + std::to_string(n);
+    const int pid = start_in(dir.string(), GRANFLOW_BINARY,
+                             ensemble_args(out, {"--set", "stage[0].duration=2e-4", "--set", "stage[1].duration=2e-4",
+                                                 "--set", "output.times=[2e-4]"}),
+                             one_thread);
+    int status = 0;
+    rusage ru{};
+    EXPECT_EQ(::wait4(pid, &status, 0, &ru), pid);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << slurp((dir / ".." / "stderr.txt").string());
+    return double(ru.ru_maxrss);
+  };
+  const double small = peak_kib(16), large = peak_kib(144);
+  const double measured = (large - small) * 1024.0 / 128;  // bytes per member
+  namespace mpm = granflow::mpm;
+  mpm::SceneOverrides ov;
+  for (size_t i = 1; i < kColumn20.size(); i += 2) ov.sets.push_back(kColumn20[i]);
+  for (const char* a : {"stage[0].duration=2e-4", "stage[1].duration=2e-4", "output.times=[2e-4]"}) ov.sets.push_back(a);
+  const mpm::SceneSetup su = mpm::make_setup(mpm::load_scene(GRANFLOW_SOURCE_DIR "/mpm/scenes/column_collapse_ci.toml", ov));
+  const mpm::EnsembleMemory m = mpm::estimate_ensemble_memory(su);
+  const double estimate = m.host_per_member + m.runner_per_member;  // the CPU twin's check
+  std::printf("per member: measured %.0f B, estimated %.0f B\n", measured, estimate);
+  EXPECT_GE(estimate, measured);
+  EXPECT_LE(estimate, 3 * measured);
+}
+
+// A failed allocation says what it was for (an address-space limit the memory check does not
+// see: 160 members of the 10 mm column, about 0.8 MB each, in 384 MB of address space).
+TEST(EnsembleProcess, FailedAllocationSaysWhatItWasFor) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "the sanitizers reserve address space of their own";
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+  GTEST_SKIP() << "the sanitizers reserve address space of their own";
+#endif
+#endif
+  const fs::path dir = fresh_dir("ensemble_bad_alloc");
+  std::ofstream(dir / "d.toml") << phi_design(600);
+  ChildSetup limited;
+  limited.env = {{"OMP_NUM_THREADS", "1"}, {"MALLOC_ARENA_MAX", "1"}};
+  limited.address_space_limit = 384L << 20;
+  const Outcome o = run_in(dir.string(), GRANFLOW_BINARY,
+                           {"ensemble", GRANFLOW_SOURCE_DIR "/mpm/scenes/column_collapse_ci.toml", "d.toml", "--out",
+                            "o", "--no-png", "--quiet"},
+                           120.0, limited);
+  EXPECT_FALSE(o.signaled) << o.err;
+  EXPECT_EQ(o.exit_code, 1) << o.err;
+  EXPECT_NE(o.err.find("granflow: error: out of memory while "), std::string::npos) << o.err;
+  EXPECT_NE(o.err.find("the memory check estimated "), std::string::npos) << o.err;
+  EXPECT_EQ(o.err.find("bad_alloc"), std::string::npos) << o.err;
 }
 
 }  // namespace
