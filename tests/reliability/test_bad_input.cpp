@@ -211,6 +211,20 @@ TEST(EnsembleExit, DevicesWithTheCpuTwinIsSaid) {
       << o.err;
 }
 
+// Sanitizers allocate (redzones, quarantine) and reserve address space of their own.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define GRANFLOW_SANITIZED 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define GRANFLOW_SANITIZED 1
+#endif
+#endif
+#ifdef GRANFLOW_SANITIZED
+#define SKIP_UNDER_SANITIZERS() GTEST_SKIP() << "the sanitizers' allocator holds memory of its own"
+#else
+#define SKIP_UNDER_SANITIZERS() (void)0
+#endif
+
 // The 20 mm CI column's overrides, and a design of n members varying phi_c.
 const std::vector<std::string> kColumn20 = {"--set", "grid.h=0.02", "--set", "grid.size=[0.6, 0.16]",
                                             "--set", "time.dt=2e-4"};
@@ -255,6 +269,7 @@ TEST(EnsembleProcess, SigintStopsWithinASecondOrTwo) {
 // The memory check's figure per member is at least what a member adds to the process's peak
 // (measured: 16 and 144 members of the 20 mm column, one step a stage) and not far above it.
 TEST(EnsembleProcess, MemoryCheckCoversWhatAMemberTakes) {
+  SKIP_UNDER_SANITIZERS();
   const fs::path dir = fresh_dir("ensemble_memory");
   auto peak_kib = [&](long n) {
     std::ofstream(dir / "d.toml") << phi_design(n);
@@ -288,13 +303,7 @@ TEST(EnsembleProcess, MemoryCheckCoversWhatAMemberTakes) {
 // A failed allocation says what it was for (an address-space limit the memory check does not
 // see: 160 members of the 10 mm column, about 0.8 MB each, in 384 MB of address space).
 TEST(EnsembleProcess, FailedAllocationSaysWhatItWasFor) {
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-  GTEST_SKIP() << "the sanitizers reserve address space of their own";
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-  GTEST_SKIP() << "the sanitizers reserve address space of their own";
-#endif
-#endif
+  SKIP_UNDER_SANITIZERS();
   const fs::path dir = fresh_dir("ensemble_bad_alloc");
   std::ofstream(dir / "d.toml") << phi_design(600);
   ChildSetup limited;
