@@ -92,9 +92,10 @@ std::vector<DataGroup> select_data(const DataSelection& sel, const std::string& 
   const auto& x = table.column(sel.abscissa);
   // strains are fractions: a column in per cent gets a warning, a stray huge value an error
   auto strain_output = [](const std::string& o) { return o.rfind("eps_", 0) == 0 || o == "gamma"; };
-  if (sel.quantity == "strain") io::check_strain_column(table, sel.abscissa);
+  const bool strain_abscissa = strain_output(sel.model_abscissa);
+  if (strain_abscissa) io::check_strain_column(table, sel.abscissa);
   for (const auto& [col, out] : sel.targets)
-    if (strain_output(out) && !(sel.quantity == "strain" && col == sel.abscissa)) io::check_strain_column(table, col);
+    if (strain_output(out) && !(strain_abscissa && col == sel.abscissa)) io::check_strain_column(table, col);
 
   // Filter and group rows (groups keep first-appearance order).
   std::vector<std::vector<double>> keys;

@@ -70,8 +70,8 @@ TEST_F(BadInput, DataWindowKeepsTheRowsAtItsBounds) {
   EXPECT_EQ(g[0].curves[0].lines, (std::vector<long>{3, 4}));
 }
 
-// Strains are fractions: a strain column (the abscissa with quantity = "strain", or a target
-// mapped to a strain output) above 1 in magnitude gets a warning naming the file, line and column
+// Strains are fractions: a strain column (the abscissa compared with a strain output, or a target
+// mapped to one) above 1 in magnitude gets a warning naming the file, line and column
 // (per cent?); one absurd value (1e300) is an error naming its line, not a strain in per cent.
 TEST_F(BadInput, StrainColumnsOutsideAPlausibleRangeAreNamed) {
   static std::vector<std::string> warnings;
@@ -80,6 +80,7 @@ TEST_F(BadInput, StrainColumnsOutsideAPlausibleRangeAreNamed) {
   DataSelection sel;
   sel.abscissa = "eps_a";
   sel.quantity = "strain";
+  sel.model_abscissa = "eps_a";
   sel.targets = {{"q", "q"}, {"ev", "eps_v"}};
   sel.target_weights = {1.0, 1.0};
   sel.file = dir.write("fraction.csv", "eps_a,q,ev\n0,0,0\n0.1,100,0.01\n0.26,150,0.02\n");
@@ -95,8 +96,12 @@ TEST_F(BadInput, StrainColumnsOutsideAPlausibleRangeAreNamed) {
   warnings.clear();
   sel.file = dir.write("stray.csv", "eps_a,q,ev\n0,0,0\n0.1,100,1e300\n0.26,150,0.02\n");
   expect_input_error([&] { select_data(sel, "t"); }, {"stray.csv:3", "column 'ev'", "1e+300", "not a strain"});
-  // not a strain: q may be anything
+  // not a strain: q may be anything, and so may an abscissa compared with a stress
   sel.file = dir.write("stress.csv", "eps_a,q,ev\n0,0,0\n0.1,1e5,0.01\n");
+  select_data(sel, "t");
+  sel.file = dir.write("oedometer.csv", "sigma_a,q,ev\n1e4,0,0\n2e5,1e5,0.01\n");
+  sel.abscissa = "sigma_a";
+  sel.model_abscissa = "sigma_n";
   select_data(sel, "t");
   EXPECT_TRUE(warnings.empty());
   io::set_warning_sink(nullptr);

@@ -81,6 +81,7 @@ struct DataSelection {
   std::string file;                      // resolved path
   std::string abscissa;                  // column
   std::string quantity;                  // time | strain | shear_rate | solid_fraction
+  std::string model_abscissa;            // the model output the abscissa is (element tests; may be empty)
   std::vector<std::pair<std::string, double>> filter;
   std::vector<std::string> split_by;
   std::vector<std::string> extra_columns;  // columns the experiment reads per group (constant within it)
