@@ -91,7 +91,7 @@ mpm::SceneSetup member_setup(const EnsembleCmd& o, const mpm::EnsembleDesign& d,
 // Refuses, before the other members are set up, a design that does not fit 90 % of what is
 // available: the runners' buffers in the GPUs' free memory (CUDA), and in the host's available
 // memory what the host holds (mpm::estimate_ensemble_memory: the set-ups, samples and summaries,
-// and the CPU twin's buffers). Returns what was estimated, for an out-of-memory message.
+// and the CPU twin's buffers). Returns the host's estimate, for an out-of-memory message.
 std::string check_memory(const EnsembleCmd& o, const mpm::EnsembleDesign& d, const mpm::SceneSetup& first,
                          int devices) {
   const mpm::EnsembleMemory m = mpm::estimate_ensemble_memory(first);
@@ -99,9 +99,8 @@ std::string check_memory(const EnsembleCmd& o, const mpm::EnsembleDesign& d, con
   char said[160] = "";
   auto check = [&](double per, double have, const char* where) {
     const double need = per * double(d.members);
-    if (said[0] == 0 || !gpu)
-      std::snprintf(said, sizeof said, "estimated %.2f GiB of the %s's %.2f GiB", need / 1073741824.0, where,
-                    have / 1073741824.0);
+    std::snprintf(said, sizeof said, "estimated %.2f GiB of the %s's %.2f GiB", need / 1073741824.0, where,
+                  have / 1073741824.0);  // the host's, checked last, stays
     if (!(have > 0) || need <= 0.9 * have) return;
     char buf[320];
     std::snprintf(buf, sizeof buf,
