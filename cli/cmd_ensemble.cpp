@@ -10,7 +10,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <new>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -85,26 +88,42 @@ mpm::SceneSetup member_setup(const EnsembleCmd& o, const mpm::EnsembleDesign& d,
   }
 }
 
-// Refuses, before the other members are set up, a design whose runner buffers (all members) do
-// not fit 90 % of the GPU's free memory (CUDA) or of the host's available memory (CPU twin,
-// with the members' set-ups, which the host holds twice: per member and combined).
-void check_memory(const EnsembleCmd& o, const mpm::EnsembleDesign& d, const mpm::SceneSetup& first, int devices) {
-  const mpm::MemoryEstimate m = mpm::estimate_memory(first);
+// Refuses, before the other members are set up, a design that does not fit 90 % of what is
+// available: the runners' buffers in the GPUs' free memory (CUDA), and in the host's available
+// memory what the host holds (mpm::estimate_ensemble_memory: the set-ups, samples and summaries,
+// and the CPU twin's buffers). Returns the host's estimate, for an out-of-memory message.
+std::string check_memory(const EnsembleCmd& o, const mpm::EnsembleDesign& d, const mpm::SceneSetup& first,
+                         int devices) {
+  const mpm::EnsembleMemory m = mpm::estimate_ensemble_memory(first);
   const bool gpu = o.backend == "cuda";
-  // plus the buffer of the samples' snapshots (x, v and T: Runner::snapshot)
-  const int snap_fields = 2 * first.scene.dim + (first.scene.material.model == mpm::ModelKind::PhaseTransition);
-  const double snap = double(first.particles.n) * snap_fields * m.scalar_bytes;
-  const double per = gpu ? m.device_bytes() + snap : m.device_bytes() + 2 * m.host_bytes;
-  const double need = per * double(d.members), have = available_bytes(o.backend) * (gpu ? devices : 1);
-  if (!(have > 0) || need <= 0.9 * have) return;
-  char buf[320];
-  std::snprintf(buf, sizeof buf,
-                "%ld members need %.2f GiB (%.4f GiB each) and the %s has %.2f GiB available: at most %ld members "
-                "fit; lower design.members or use a coarser grid",
-                d.members, need / 1073741824.0, per / 1073741824.0, gpu ? (devices > 1 ? "GPUs" : "GPU") : "host",
-                have / 1073741824.0,
-                static_cast<long>(0.9 * have / per));
-  throw io::InputError(io::where(d.file) + buf);
+  char said[160] = "";
+  auto check = [&](double per, double have, const char* where) {
+    const double need = per * double(d.members);
+    std::snprintf(said, sizeof said, "estimated %.2f GiB of the %s's %.2f GiB", need / 1073741824.0, where,
+                  have / 1073741824.0);  // the host's, checked last, stays
+    if (!(have > 0) || need <= 0.9 * have) return;
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "%ld members need %.2f GiB (%.4f GiB each) and the %s has %.2f GiB available: at most %ld members "
+                  "fit; lower design.members or use a coarser grid",
+                  d.members, need / 1073741824.0, per / 1073741824.0, where, have / 1073741824.0,
+                  static_cast<long>(0.9 * have / per));
+    throw io::InputError(io::where(d.file) + buf);
+  };
+  if (gpu) check(m.runner_per_member, available_bytes("cuda") * devices, devices > 1 ? "GPUs" : "GPU");
+  check(m.host_per_member + (gpu ? 0.0 : m.runner_per_member), available_bytes("cpu"), "host");
+  return said;
+}
+
+// An allocation that fails says what it was for and what the memory check estimated.
+template <class F>
+auto allocating(const std::string& what, const std::string& estimate, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const std::bad_alloc&) {
+    throw std::runtime_error("out of memory while " + what + " (the memory check " + estimate +
+                             "): lower design.members or use a coarser grid");
+  }
 }
 
 std::string csv_quote(const std::string& s) {
@@ -183,6 +202,17 @@ void finish(const EnsembleCmd& o, const mpm::EnsembleDesign& design, const mpm::
     }
   }
   folder.complete(failed == 0 ? "complete" : "complete; " + std::to_string(failed) + " members failed (summary.csv)");
+  // Exit status (docs/mpm_ensembles.md): every member failed: 1, as a failed single run; some: 0
+  // with a warning, the others' results stand.
+  if (failed == 0) return;
+  long first = 0;
+  while (s.members[first].ok) ++first;
+  const std::string why = "member " + std::to_string(first) + ": " + s.members[first].message;
+  if (failed == static_cast<long>(s.members.size()))
+    throw std::runtime_error("all " + std::to_string(failed) + " members failed (" + why + "); " + out +
+                             "/summary.csv has each member's message");
+  std::fprintf(stderr, "granflow: warning: %ld of %zu members failed (%s); %s/summary.csv has each member's status\n",
+               failed, s.members.size(), why.c_str(), out.c_str());
 }
 
 // Several MPI ranks (docs/mpm_ensembles.md, "Several processes (MPI)"): rank r runs the
@@ -207,13 +237,15 @@ void run_ensemble_ranks(const EnsembleCmd& o) {
     mpm::EnsembleDesign mine = design;
     mine.members = last - first;
     if (o.backend == "cuda") mpm::cuda_select_device(rk.local_rank() % std::max(1, mpm::cuda_device_count()));
-    check_memory(o, mine, ms[0], 1);
-    for (long k = first + 1; k < last; ++k) ms.push_back(member_setup(o, design, k));
-    try {
-      su = mpm::make_ensemble_setup(ms);
-    } catch (const mpm::SceneError& e) {
-      throw io::InputError(io::where(o.design) + e.what());
-    }
+    const std::string estimate = check_memory(o, mine, ms[0], 1);
+    allocating("setting up this rank's members", estimate, [&] {
+      for (long k = first + 1; k < last; ++k) ms.push_back(member_setup(o, design, k));
+      try {
+        su = mpm::make_ensemble_setup(ms);
+      } catch (const mpm::SceneError& e) {
+        throw io::InputError(io::where(o.design) + e.what());
+      }
+    });
   } else {
     su = member_setup(o, design, 0);  // the scene, for rank 0's summary
   }
@@ -295,6 +327,10 @@ void run_ensemble_ranks(const EnsembleCmd& o) {
 }
 
 void run_ensemble_cmd(const EnsembleCmd& o) {
+  require_backend(o.backend);
+  if (o.backend != "cuda" && o.devices > 0)
+    io::warn("--devices " + std::to_string(o.devices) +
+             ": the CPU twin runs every member in this process (--devices spreads them over GPUs with --backend cuda)");
   if (mpm::ranks().size() > 1) return run_ensemble_ranks(o);
   const mpm::EnsembleDesign design = mpm::load_design(o.design);
   check_vary_keys(o, design);
@@ -306,21 +342,27 @@ void run_ensemble_cmd(const EnsembleCmd& o) {
   groups = static_cast<int>(std::min<long>(groups, design.members));
   std::vector<mpm::SceneSetup> ms;
   ms.push_back(member_setup(o, design, 0));
-  check_memory(o, design, ms[0], groups);
-  for (long k = 1; k < design.members; ++k) ms.push_back(member_setup(o, design, k));
+  const std::string estimate = check_memory(o, design, ms[0], groups);
+  // Set-up: a Ctrl-C here stops at once (the handlers come with the run), nothing is written yet.
+  allocating("setting up the " + std::to_string(design.members) + " members", estimate, [&] {
+    ms.reserve(static_cast<std::size_t>(design.members));
+    for (long k = 1; k < design.members; ++k) ms.push_back(member_setup(o, design, k));
+  });
   const long per = (design.members + groups - 1) / groups;
   std::vector<std::vector<mpm::SceneSetup>> group_ms(groups);
   std::vector<mpm::SceneSetup> group_su(groups);
-  for (int g = 0; g < groups; ++g) {
-    const long a = g * per, b = std::min<long>(design.members, a + per);
-    group_ms[g].assign(ms.begin() + a, ms.begin() + b);
-    try {
-      group_su[g] = mpm::make_ensemble_setup(group_ms[g]);
-    } catch (const mpm::SceneError& e) {
-      throw io::InputError(io::where(o.design) + e.what());
+  allocating("combining the members' set-ups", estimate, [&] {
+    for (int g = 0; g < groups; ++g) {
+      const long a = g * per, b = std::min<long>(design.members, a + per);
+      group_ms[g].assign(std::make_move_iterator(ms.begin() + a), std::make_move_iterator(ms.begin() + b));
+      try {
+        group_su[g] = mpm::make_ensemble_setup(group_ms[g]);
+      } catch (const mpm::SceneError& e) {
+        throw io::InputError(io::where(o.design) + e.what());
+      }
     }
-  }
-  ms.clear();
+  });
+  ms = {};
   std::string out = o.out;
   if (out.empty()) out = "ensemble_out/" + fs::path(o.design).stem().string();
   io::RunFolder folder(out, o.force ? io::FolderUse::Force : io::FolderUse::Fresh, mpm::kCheckpointFile);
@@ -334,7 +376,8 @@ void run_ensemble_cmd(const EnsembleCmd& o) {
     auto run_group = [&](int g) {
       try {
         if (o.backend == "cuda") mpm::cuda_select_device(g);
-        auto runner = make_runner(group_su[g], o.backend, o.cuda);
+        auto runner = allocating("allocating the runner's buffers", estimate,
+                                 [&] { return make_runner(group_su[g], o.backend, o.cuda); });
         if (g == 0) {
           device = runner->device() + (groups > 1 ? " (and " + std::to_string(groups - 1) + " more)" : "");
           std::fprintf(stderr, "granflow ensemble: %s, %ld members (%s design of %s) on %d device%s\n  %s; %s\n",
@@ -348,7 +391,8 @@ void run_ensemble_cmd(const EnsembleCmd& o) {
         eo.max_span = o.span;
         eo.interrupt = &g_signal;
         eo.first_member = static_cast<int>(g * per);
-        parts[g] = mpm::run_ensemble(group_su[g], group_ms[g], *runner, eo);
+        parts[g] = allocating("running the members", estimate,
+                              [&] { return mpm::run_ensemble(group_su[g], group_ms[g], *runner, eo); });
       } catch (...) {
         errors[g] = std::current_exception();
       }

@@ -1,6 +1,7 @@
 // granflow mpm <scene.toml>: run a scene (CPU twin or CUDA) and write VTU/PVD frames, CSV
 // series, the final free surface and PNG snapshots; granflow bench mpm: per-phase timings.
 #include <signal.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -91,21 +92,47 @@ std::unique_ptr<mpm::Runner> make_runner(const mpm::SceneSetup& su, const std::s
   return backend == "cuda" ? mpm::make_cuda_runner(su, co) : mpm::make_cpu_runner(su);
 }
 
+void require_backend(const std::string& backend) {
+  if (backend != "cuda") return;
+  if (const std::string why = mpm::cuda_unavailable_reason(); !why.empty())
+    throw io::InputError("--backend cuda: " + why + "; use --backend cpu");
+}
+
 std::string locate_script(const std::string& name) {
   return io::script_path(name);
 }
 
 volatile std::sig_atomic_t g_signal = 0;
 namespace {
-void on_signal(int sig) { g_signal = sig; }
+volatile std::sig_atomic_t g_deferred = 0;
+// The first signal asks the loops to stop; a second stops at once (the default action), unless
+// a checkpoint is being written: then it waits for the write (a third does not).
+void on_signal(int sig) {
+  if (g_signal == 0) {
+    g_signal = sig;
+    return;
+  }
+  if (io::critical_write_active() && g_deferred == 0) {
+    g_deferred = sig;
+    static const char note[] = "\ngranflow: finishing the checkpoint first (once more stops at once)\n";
+    [[maybe_unused]] const ssize_t n = ::write(STDERR_FILENO, note, sizeof note - 1);
+    return;
+  }
+  struct sigaction dfl {};
+  dfl.sa_handler = SIG_DFL;
+  sigemptyset(&dfl.sa_mask);
+  ::sigaction(sig, &dfl, nullptr);
+  ::raise(sig);
+}
 }  // namespace
 
 SignalGuard::SignalGuard() {
   g_signal = 0;
+  g_deferred = 0;
   struct sigaction sa {};
   sa.sa_handler = on_signal;
   sigemptyset(&sa.sa_mask);
-  sa.sa_flags = SA_RESTART | SA_RESETHAND;
+  sa.sa_flags = SA_RESTART;
   sigaction(SIGINT, &sa, &old_int_);
   sigaction(SIGTERM, &sa, &old_term_);
 }
@@ -173,6 +200,7 @@ std::string restart_command(const MpmOptions& o, const std::string& out) {
 }
 
 void run_mpm(const MpmOptions& o) {
+  require_backend(o.backend);
   const mpm::SceneSetup su = setup_from_file(o.scene, o.overrides, o.precision);
   std::string out = o.out;
   if (out.empty()) out = "mpm_out/" + fs::path(o.scene).stem().string();
@@ -296,6 +324,7 @@ struct BenchOptions {
 
 void bench_mpm(const BenchOptions& o) {
   using Clock = std::chrono::steady_clock;
+  require_backend(o.backend);
   const auto t_setup = Clock::now();
   const mpm::SceneSetup su = setup_from_file(o.scene, o.overrides, o.precision);
   const double setup_s = std::chrono::duration<double>(Clock::now() - t_setup).count();

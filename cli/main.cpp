@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <exception>
 #include <iostream>
+#include <new>
 #include <string>
 
 #include "commands.hpp"
@@ -61,6 +62,10 @@ int run(int argc, char** argv) {
   } catch (const granflow::io::InputError& e) {
     std::cerr << "granflow: error" << at << ": " << e.what() << "\n";
     return 2;
+  } catch (const std::bad_alloc&) {  // where no caller said what the memory was for
+    std::cerr << "granflow: error" << at << ": out of memory (an allocation failed): use a coarser grid or fewer "
+                                              "members, or free memory\n";
+    return 1;
   } catch (const std::exception& e) {
     std::cerr << "granflow: error" << at << ": " << e.what() << "\n";
     return 1;

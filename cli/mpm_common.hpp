@@ -55,14 +55,17 @@ struct CudaFlags {
 
 std::unique_ptr<mpm::Runner> make_runner(const mpm::SceneSetup& su, const std::string& backend,
                                          const CudaFlags& flags);
+// --backend cuda where it cannot run: an InputError, the same for every MPM command, before
+// anything is set up or written.
+void require_backend(const std::string& backend);
 
 // scripts/NAME from the working directory or beside the installed data; "" when not found.
 std::string locate_script(const std::string& name);
 
 // Set by SIGINT/SIGTERM while a SignalGuard lives; the time loops poll it after every step.
 extern volatile std::sig_atomic_t g_signal;
-// Installs the handlers for its lifetime. SA_RESETHAND: a second Ctrl-C stops at once (the last
-// complete checkpoint stays valid).
+// Installs the handlers for its lifetime. A second Ctrl-C stops at once, except during a
+// checkpoint write (io::CriticalWrite): that one finishes first, so a --restart finds it.
 class SignalGuard {
  public:
   SignalGuard();

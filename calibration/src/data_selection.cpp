@@ -90,6 +90,12 @@ std::vector<DataGroup> select_data(const DataSelection& sel, const std::string& 
   check_header(sel.file, names, experiment_name);
   const io::CsvColumns table = io::read_csv_columns(sel.file, names);
   const auto& x = table.column(sel.abscissa);
+  // strains are fractions: a column in per cent gets a warning, a stray huge value an error
+  auto strain_output = [](const std::string& o) { return o.rfind("eps_", 0) == 0 || o == "gamma"; };
+  const bool strain_abscissa = strain_output(sel.model_abscissa);
+  if (strain_abscissa) io::check_strain_column(table, sel.abscissa);
+  for (const auto& [col, out] : sel.targets)
+    if (strain_output(out) && !(strain_abscissa && col == sel.abscissa)) io::check_strain_column(table, col);
 
   // Filter and group rows (groups keep first-appearance order).
   std::vector<std::vector<double>> keys;
@@ -151,6 +157,7 @@ std::vector<DataGroup> select_data(const DataSelection& sel, const std::string& 
       c.data_column = sel.targets[t].first;
       c.model_output = sel.targets[t].second;
       c.abscissa = sel.abscissa;
+      c.file = sel.file;
       c.weight = sel.weight * sel.target_weights[t];
       if (t < sel.target_sd.size()) c.sd = sel.target_sd[t];
       const auto& y = table.column(c.data_column);

@@ -172,7 +172,8 @@ bool prediction_vector(const Objective& obj, const std::vector<Prediction>& pred
     for (std::size_t i = 0; i < cv.x.size(); ++i) {
       const double m = p.values[k][i];
       if (!std::isfinite(m) || (logm && !(m > 0))) {
-        why = cv.label() + ": model undefined at " + cv.abscissa + " = " + num(cv.x[i]);
+        why = (cv.file.empty() ? "" : io::where(cv.file, i < cv.lines.size() ? cv.lines[i] : 0)) + cv.label() +
+              ": model undefined at " + cv.abscissa + " = " + num(cv.x[i]);
         return false;
       }
       out.push_back(logm ? std::log(m) : m);

@@ -158,6 +158,7 @@ Parsed read_experiment_common(io::TomlTable& t, const std::string& job_file, std
   } else {
     const std::string def = s.quantity == "time" ? "time" : s.quantity == "strain" ? "gamma" : "shear_rate";
     p.model_abscissa = t.string_or("model_abscissa", def);
+    s.model_abscissa = p.model_abscissa;
     const auto& o = element_test_outputs();
     if (std::find(o.begin(), o.end(), p.model_abscissa) == o.end())
       t.fail("model_abscissa", "must be one of " + join(o));

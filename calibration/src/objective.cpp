@@ -226,7 +226,11 @@ Evaluation Objective::assess(const std::vector<Prediction>& pred) const {
       double r;
       if (!std::isfinite(m) || (logm && !(m > 0))) {
         r = pen;
-        if (ce.failure.empty()) ce.failure = "model undefined at some abscissae (e.g. " + std::to_string(cv.x[i]) + ")";
+        if (ce.failure.empty())
+          ce.failure = "model undefined at some abscissae (e.g. " + cv.abscissa + " = " + std::to_string(cv.x[i]) +
+                       (cv.file.empty() || i >= cv.lines.size() ? ""
+                                                                : " of " + cv.file + " line " + std::to_string(cv.lines[i])) +
+                       ")";
       } else {
         r = logm ? std::log(m) - std::log(y) : (m - y) / scale_[c];
         ss_res += (m - y) * (m - y);

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <mutex>
 #include <sstream>
 #include <type_traits>
@@ -232,9 +233,11 @@ std::vector<Prediction> SceneExperiment::predict_batch(const std::vector<io::Par
   return share(*this, sets);
 }
 
-// A data table of an experiment: its file (relative to the job), two columns, the sd.
+// A data table of an experiment: its file (relative to the job), two columns, the sd. A time
+// series (t_end finite: the last stage's duration) must end by the end of the run.
 Curve read_curve(io::TomlTable& t, const std::string& job_file, const std::string& xkey, const std::string& ykey,
-                 const std::string& experiment, const std::string& model_output, double default_sd) {
+                 const std::string& experiment, const std::string& model_output, double default_sd,
+                 double t_end = std::numeric_limits<double>::infinity()) {
   std::string file = t.string("data");
   if (!file.empty() && file[0] != '/') {
     const auto slash = job_file.find_last_of('/');
@@ -252,10 +255,18 @@ Curve read_curve(io::TomlTable& t, const std::string& job_file, const std::strin
   c.x = cols.column(xc);
   c.y = cols.column(yc);
   c.lines = cols.lines;
+  c.file = file;
   for (size_t i = 1; i < c.x.size(); ++i)
     if (!(c.x[i] > c.x[i - 1]))
       throw io::InputError(io::where(file, cols.lines[i]) + "column '" + xc + "' must increase strictly");
   if (c.x.empty()) throw io::InputError(io::where(file) + "no data rows");
+  for (size_t i = 0; i < c.x.size(); ++i)
+    if (c.x[i] > t_end * (1 + 1e-9)) {
+      std::ostringstream os;
+      os << xc << " = " << c.x[i] << " s lies past the end of the run: the scene's last stage ends " << t_end
+         << " s after the release (the data's time origin); drop the later rows or lengthen the stage";
+      throw io::InputError(io::where(file, cols.lines[i]) + os.str());
+    }
   return c;
 }
 
@@ -294,8 +305,9 @@ std::shared_ptr<const Experiment> make_scene_experiment(io::TomlTable& t, const 
     e->measured.push_back({Measured::SurfaceY, ""});
     s->finish();
   }
+  const double t_end = sc.stages.empty() ? 0.0 : sc.stages.back().duration;  // since the release
   if (auto f = t.optional_table("front")) {
-    e->curves.push_back(read_curve(*f, job_file, "t", "x", e->name, "runout", kFrontSd));
+    e->curves.push_back(read_curve(*f, job_file, "t", "x", e->name, "runout", kFrontSd, t_end));
     e->measured.push_back({Measured::Front, ""});
     f->finish();
   }
@@ -303,9 +315,9 @@ std::shared_ptr<const Experiment> make_scene_experiment(io::TomlTable& t, const 
     const std::string name = tr.string("name");
     if (std::none_of(sc.tracks.begin(), sc.tracks.end(), [&](const mpm::Track& k) { return k.name == name; }))
       tr.fail("name", "the scene tracks no point '" + name + "'");
-    e->curves.push_back(read_curve(tr, job_file, "t", "x", e->name + "[" + name + "]", "track_x", kTrackSd));
+    e->curves.push_back(read_curve(tr, job_file, "t", "x", e->name + "[" + name + "]", "track_x", kTrackSd, t_end));
     e->measured.push_back({Measured::TrackX, name});
-    e->curves.push_back(read_curve(tr, job_file, "t", "y", e->name + "[" + name + "]", "track_y", kTrackSd));
+    e->curves.push_back(read_curve(tr, job_file, "t", "y", e->name + "[" + name + "]", "track_y", kTrackSd, t_end));
     e->measured.push_back({Measured::TrackY, name});
     tr.finish();
   }

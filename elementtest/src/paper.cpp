@@ -175,11 +175,11 @@ std::vector<DemComparison> dem_comparison(const std::string& csv_path, const io:
 
 std::vector<std::string> write_figures(const std::string& dir, std::ostream& log) {
   namespace fs = std::filesystem;
-  io::make_folder(dir);
   std::vector<std::string> files;
   const io::ParameterSet fric = io::load_parameter_set("frictional_element");
   const io::ParameterSet coll = io::load_parameter_set("collisional_element");
   const io::ParameterSet full = io::load_parameter_set("element_test");
+  io::make_folder(dir);  // once the sets are found: a refused run leaves no empty folder
   const double w0 = wall_now();
   auto run_all = [&](const std::string& name, const std::string& label, const io::ParameterSet& set,
                      const std::vector<double>& values, auto make) {

@@ -217,7 +217,9 @@ void load_programme_data(ElementTest& test, const std::string& file) {
   const io::CsvColumns c = io::read_csv_columns(file, {g.control_column});
   g.data_file = file;
   g.data_control = c.column(g.control_column);
+  g.data_lines = c.lines;
   if (g.data_control.size() < 2) throw io::InputError(io::where(file) + "programme 'data' needs at least 2 rows");
+  if (g.control == Control::Strain) io::check_strain_column(c, g.control_column);
 }
 
 TestFile load_test_file(const std::string& path) {

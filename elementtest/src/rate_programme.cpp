@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 
 #include <granflow/io/input_error.hpp>
 
@@ -48,7 +49,8 @@ DataSchedule data_schedule(const RateProgramme& g, double sigma_v0, const std::s
   d.start = stress ? sigma_v0 : g.data_control.front();
   double t = 0, prev = d.start, seg_t0 = 0;
   int dir = 0;
-  for (double c : g.data_control) {
+  for (std::size_t i = 0; i < g.data_control.size(); ++i) {
+    const double c = g.data_control[i];
     const double v = target(c), dv = v - prev;
     const int sign = dv > 0 ? 1 : dv < 0 ? -1 : 0;
     if (sign != 0 && dir != 0 && sign != dir) {  // a reversal ends the run
@@ -57,6 +59,13 @@ DataSchedule data_schedule(const RateProgramme& g, double sigma_v0, const std::s
     }
     if (sign != 0) dir = sign;
     t += std::fabs(dv) / g.rate;
+    if (!std::isfinite(t)) {  // e.g. a stray 1e300: say so, not "never changes"
+      std::ostringstream os;
+      os << "programme 'data': column '" << g.control_column << "' reaches " << c << " here; at rate = " << g.rate
+         << " the time to get there is not finite: a stray value?";
+      const bool own = !g.data_file.empty() && i < g.data_lines.size();
+      throw io::InputError(io::where(own ? g.data_file : file, own ? g.data_lines[i] : 0) + os.str());
+    }
     d.out_times.push_back(t);
     prev = v;
   }

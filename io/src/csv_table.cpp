@@ -185,4 +185,23 @@ void require_strictly_increasing(const CsvColumns& t, const std::string& name) {
     }
 }
 
+void check_strain_column(const CsvColumns& t, const std::string& name) {
+  const auto& c = t.column(name);
+  std::size_t top = 0;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    if (std::fabs(c[i]) > kMaxStrainPerCent) {
+      std::ostringstream os;
+      os << "column '" << name << "': " << c[i] << " is not a strain (a fraction, nor one in per cent): a stray value?";
+      throw InputError(where(t.file, t.lines[i]) + os.str());
+    }
+    if (std::fabs(c[i]) > std::fabs(c[top])) top = i;
+  }
+  if (!c.empty() && std::fabs(c[top]) > 1) {
+    std::ostringstream os;
+    os << "column '" << name << "' reaches " << c[top]
+       << ": strains are fractions (0.26 for 26 %); is the column in per cent? then divide it by 100";
+    warn(where(t.file, t.lines[top]) + os.str());
+  }
+}
+
 }  // namespace granflow::io

@@ -4,12 +4,15 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <mutex>
 #include <streambuf>
+#include <thread>
 #include <vector>
 
 namespace granflow::io {
@@ -54,14 +57,19 @@ struct EnvFault {
   std::size_t budget = 0, used = 0;
   int err = ENOSPC;
   bool tripped = false;
+  long delay_ms = 0;  // every step of a matching file waits this long first
+  bool fails = true;  // false: a delay only
 
   EnvFault() {
     const char* at_s = std::getenv("GRANFLOW_FAULT_AT");
     const char* file_s = std::getenv("GRANFLOW_FAULT_FILE");
     const char* bytes_s = std::getenv("GRANFLOW_FAULT_BYTES");
     const char* errno_s = std::getenv("GRANFLOW_FAULT_ERRNO");
-    active = at_s || file_s || bytes_s;
+    const char* delay_s = std::getenv("GRANFLOW_FAULT_DELAY_MS");
+    active = at_s || file_s || bytes_s || delay_s;
     if (!active) return;
+    if (delay_s) delay_ms = std::strtol(delay_s, nullptr, 10);
+    fails = !delay_s || at_s || bytes_s;
     if (at_s) {
       const std::string a = at_s;
       at = a == "open" ? WriteStep::Open : a == "sync" ? WriteStep::Sync : a == "close" ? WriteStep::Close
@@ -77,7 +85,9 @@ struct EnvFault {
   }
 
   int operator()(const std::string& path, WriteStep step, std::size_t& bytes) {
-    if (!active || step != at || path.find(file) == std::string::npos) return 0;
+    if (!active || path.find(file) == std::string::npos) return 0;
+    if (delay_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+    if (!fails || step != at) return 0;
     if (tripped) return err;
     if (step != WriteStep::Write) {
       tripped = true;
@@ -97,6 +107,15 @@ struct EnvFault {
 };
 
 }  // namespace
+
+namespace {
+std::atomic<int> g_critical_writes{0};
+static_assert(std::atomic<int>::is_always_lock_free, "read in a signal handler");
+}  // namespace
+
+CriticalWrite::CriticalWrite() { ++g_critical_writes; }
+CriticalWrite::~CriticalWrite() { --g_critical_writes; }
+bool critical_write_active() { return g_critical_writes.load() > 0; }
 
 WriteFault set_write_fault(WriteFault hook) {
   std::lock_guard<std::mutex> lk(g_fault_mutex);

@@ -1,4 +1,5 @@
 #include <granflow/io/parameter_set.hpp>
+#include <granflow/io/share.hpp>
 
 #include <algorithm>
 #include <cctype>
@@ -182,10 +183,17 @@ ParameterSet load_parameter_set(const std::string& name_or_path) {
       path = candidate;
     } else {
       std::string known;
-      for (const auto& e : std::filesystem::directory_iterator(data_directory() + "/params", ec))
+      const std::string params = data_directory() + "/params";
+      for (const auto& e : std::filesystem::directory_iterator(params, ec))
         if (e.path().extension() == ".toml") known += (known.empty() ? "" : ", ") + e.path().stem().string();
+      // no shipped set at all: the data folder is not where it was looked for
+      const std::string none = "; the shipped sets are looked for in " + params + ", which " +
+                               (std::filesystem::is_directory(params, ec) ? "holds none" : "does not exist") + " (" +
+                               data_directory_origin() +
+                               "): set GRANFLOW_DATA_DIR to the absolute path of the shipped data folder "
+                               "(docs/install.md)";
       throw InputError(where(name_or_path) + "no such file, and no parameter set of that name" +
-                       (known.empty() ? std::string() : " (shipped sets: " + known + ")"));
+                       (known.empty() ? none : " (shipped sets: " + known + ")"));
     }
   }
   const toml::table doc = TomlTable::parse_file(path);
@@ -221,8 +229,15 @@ void apply_override(ParameterSet& set, const std::string& assignment, const std:
       a = b + 1;
     }
     if (!tbl) throw InputError(who + "the set has no [" + section + "] table");
-    const std::string line = "v = " + value;
-    toml::table parsed = toml::parse(std::string_view(line), std::string_view("<override>"));
+    // A bare word is a string, as for scene keys (mpm/src/scene_file.cpp parse_value).
+    const bool bare_word = !value.empty() && value.find_first_of("\"'[]{}=#\\ \t\r\n") == std::string::npos;
+    toml::table parsed;
+    try {
+      parsed = toml::parse(std::string_view("v = " + value), std::string_view("<override>"));
+    } catch (const toml::parse_error&) {
+      if (!bare_word) throw;
+      parsed = toml::parse(std::string_view("v = \"" + value + "\""), std::string_view("<override>"));
+    }
     if (section == "collisional" && (key == "e_sd" || key == "V_sd")) {
       tbl->erase("e_sd");
       tbl->erase("V_sd");

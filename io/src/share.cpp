@@ -62,6 +62,20 @@ std::string data_directory() {
   return (fs::path(share_directory()) / "data").string();
 }
 
+std::string data_directory_origin() {
+  std::error_code ec;
+  if (const char* env = std::getenv("GRANFLOW_DATA_DIR"); env && *env) {
+    std::string s = "GRANFLOW_DATA_DIR = '" + std::string(env) + "'";
+    if (fs::path(env).is_relative()) s += ", a relative path: from the current folder " + fs::current_path(ec).string();
+    return s;
+  }
+  std::string searched;
+  if (const std::string exe = program_directory(); !exe.empty())
+    searched = (fs::path(exe) / GRANFLOW_BIN_TO_SHARE / "data").lexically_normal().string() +
+               ", the source tree of a build folder above " + exe + ", ";
+  return "GRANFLOW_DATA_DIR is not set; searched: " + searched + "./data";
+}
+
 std::string script_path(const std::string& name) {
   std::error_code ec;
   for (const std::string& root : {share_directory(), from_program(), std::string(".")}) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -20,6 +21,14 @@ std::string where(const std::string& file, long line, long column) {
   os << ": ";
   return os.str();
 }
+
+namespace {
+void default_warning_sink(const std::string& line) { std::fprintf(stderr, "granflow: warning: %s\n", line.c_str()); }
+void (*g_warning_sink)(const std::string&) = default_warning_sink;
+}  // namespace
+
+void warn(const std::string& line) { g_warning_sink(line); }
+void set_warning_sink(void (*sink)(const std::string&)) { g_warning_sink = sink ? sink : default_warning_sink; }
 
 bool Bounds::contains(double v) const {
   if (!std::isfinite(v)) return false;
@@ -111,19 +120,17 @@ std::string type_name(const toml::node& n) {
     default: return "a date/time";
   }
 }
+// Edits (insert, delete, substitute, swap two neighbours) from a to b: "rnage" is one from "range".
 std::size_t edit_distance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diag = row[0];
-    row[0] = i;
+  std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+  for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+  for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i)
     for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diag = up;
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
     }
-  }
-  return row[b.size()];
+  return d[a.size()][b.size()];
 }
 
 }  // namespace

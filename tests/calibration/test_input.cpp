@@ -52,6 +52,61 @@ TEST_F(BadInput, GoodJobLoads) {
 
 // ---- data CSV ------------------------------------------------------------------------
 
+// The abscissa window [lo, hi] keeps the rows at both bounds, the one at lo included.
+TEST_F(BadInput, DataWindowKeepsTheRowsAtItsBounds) {
+  DataSelection sel;
+  sel.file = dir.write("w.csv", "strain,q\n0.01,1\n0.02,2\n0.03,3\n0.04,4\n");
+  sel.abscissa = "strain";
+  sel.quantity = "strain";
+  sel.targets = {{"q", "q"}};
+  sel.target_weights = {1.0};
+  sel.x_lo = 0.02;
+  sel.x_hi = 0.03;
+  const std::vector<DataGroup> g = select_data(sel, "w");
+  ASSERT_EQ(g.size(), 1u);
+  ASSERT_EQ(g[0].curves.size(), 1u);
+  EXPECT_EQ(g[0].curves[0].x, (std::vector<double>{0.02, 0.03}));
+  EXPECT_EQ(g[0].curves[0].y, (std::vector<double>{2, 3}));
+  EXPECT_EQ(g[0].curves[0].lines, (std::vector<long>{3, 4}));
+}
+
+// Strains are fractions: a strain column (the abscissa compared with a strain output, or a target
+// mapped to one) above 1 in magnitude gets a warning naming the file, line and column
+// (per cent?); one absurd value (1e300) is an error naming its line, not a strain in per cent.
+TEST_F(BadInput, StrainColumnsOutsideAPlausibleRangeAreNamed) {
+  static std::vector<std::string> warnings;
+  warnings.clear();
+  io::set_warning_sink([](const std::string& l) { warnings.push_back(l); });
+  DataSelection sel;
+  sel.abscissa = "eps_a";
+  sel.quantity = "strain";
+  sel.model_abscissa = "eps_a";
+  sel.targets = {{"q", "q"}, {"ev", "eps_v"}};
+  sel.target_weights = {1.0, 1.0};
+  sel.file = dir.write("fraction.csv", "eps_a,q,ev\n0,0,0\n0.1,100,0.01\n0.26,150,0.02\n");
+  select_data(sel, "t");
+  EXPECT_TRUE(warnings.empty()) << warnings.front();
+  sel.file = dir.write("percent.csv", "eps_a,q,ev\n0,0,0\n10,100,1\n26,150,2\n");
+  select_data(sel, "t");
+  ASSERT_EQ(warnings.size(), 2u);
+  for (const char* part : {"percent.csv:4", "column 'eps_a'", "26", "per cent"})
+    EXPECT_NE(warnings[0].find(part), std::string::npos) << warnings[0];
+  for (const char* part : {"percent.csv:4", "column 'ev'", "strain"})
+    EXPECT_NE(warnings[1].find(part), std::string::npos) << warnings[1];
+  warnings.clear();
+  sel.file = dir.write("stray.csv", "eps_a,q,ev\n0,0,0\n0.1,100,1e300\n0.26,150,0.02\n");
+  expect_input_error([&] { select_data(sel, "t"); }, {"stray.csv:3", "column 'ev'", "1e+300", "not a strain"});
+  // not a strain: q may be anything, and so may an abscissa compared with a stress
+  sel.file = dir.write("stress.csv", "eps_a,q,ev\n0,0,0\n0.1,1e5,0.01\n");
+  select_data(sel, "t");
+  sel.file = dir.write("oedometer.csv", "sigma_a,q,ev\n1e4,0,0\n2e5,1e5,0.01\n");
+  sel.abscissa = "sigma_a";
+  sel.model_abscissa = "sigma_n";
+  select_data(sel, "t");
+  EXPECT_TRUE(warnings.empty());
+  io::set_warning_sink(nullptr);
+}
+
 // Spreadsheet programs write a UTF-8 byte-order mark before the header.
 TEST_F(BadInput, CsvByteOrderMarkBeforeTheHeaderIsSkipped) {
   const CalibrationJob j = load_job(job(std::string("\xEF\xBB\xBF") + kGoodCsv, job_text()));

@@ -90,6 +90,37 @@ TEST(SceneExperiment, BatchPredictionsAreTheSingleRunsOfEachSet) { expect_batch_
 // The same after 0.12 s of collapse (900 steps against 1800): the sanitizer stage's case.
 TEST(SceneExperiment, BatchPredictionsCiSizedAreTheSingleRunsOfEachSet) { expect_batch_equals_single_runs(0.12); }
 
+// A front is the run-out against the time since the release (the last stage's start, here
+// 0.06 s): its model values at t are the single run's run-out at 0.06 s + t, not at t.
+TEST(SceneExperiment, FrontIsMeasuredAgainstTheTimeSinceTheRelease) {
+  Scratch s;
+  s.write("surface.csv", "x,y\n0.1,0.05\n");
+  s.write("front.csv", "t,x\n0.02,0.3\n0.05,0.3\n0.1,0.3\n");
+  const CalibrationJob job = load_job(s.write("job.toml", job_text(test::source_dir(), 0.1)));
+  const std::vector<Prediction> p = job.experiments[0]->predict_batch({job.start});
+  ASSERT_TRUE(p[0].ok) << p[0].error;
+  mpm::SceneOverrides ov;
+  ov.sets = column_sets(0.1);
+  const mpm::SceneSetup su = mpm::make_setup(mpm::load_scene(test::source_dir() + "/mpm/scenes/column_collapse_ci.toml", ov));
+  auto r = mpm::make_cpu_runner(su);
+  mpm::RunOptions ro;
+  ro.progress = false;
+  const mpm::RunSummary rs = mpm::run(su, *r, ro);
+  ASSERT_TRUE(rs.ok) << rs.message;
+  auto runout_at = [&](double t) {  // the sample at time t of the run
+    for (const auto& row : rs.series)
+      if (std::fabs(row.t - t) < 1e-9) return row.m.runout;
+    ADD_FAILURE() << "no sample at t = " << t;
+    return std::nan("");
+  };
+  const std::vector<double> t_data = {0.02, 0.05, 0.1};
+  ASSERT_EQ(p[0].values[1].size(), t_data.size());
+  for (size_t i = 0; i < t_data.size(); ++i)
+    EXPECT_NEAR(p[0].values[1][i], runout_at(0.06 + t_data[i]), 1e-12) << "t = " << t_data[i];
+  // the column moves after the release: against the run's own time the values would differ
+  EXPECT_GT(runout_at(0.16), runout_at(0.1) + 0.01);
+}
+
 TEST(SceneExperiment, JobErrorsNameTheFileAndKey) {
   Scratch s;
   s.write("surface.csv", "x,y\n0.1,0.05\n0.05,0.04\n");

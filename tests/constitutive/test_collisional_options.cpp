@@ -95,6 +95,32 @@ TEST(CollisionalOptions, JammingFractionFallsWithFrictionAndMovesTheDivergence) 
   EXPECT_FALSE(kinetic_coefficients(c, 0.6).clamped);
 }
 
+// With the jamming option the coefficients' g0 diverges at V_sd(mu_p), not at V_sd: g0 of
+// Eqs. (25)-(26) written out here with V_sd(mu_p) = V_sd_inf + (V_sd - V_sd_inf) exp(-mu_p / mu_star).
+TEST(CollisionalOptions, KineticCoefficientsUseTheJammingFractionOfTheFriction) {
+  auto c = dem_set(0.9, 0.3);
+  c.jamming_friction = true;
+  c.V_sd_inf = 0.585;
+  c.mu_star = 0.1;
+  const double Vj = 0.585 + (0.64 - 0.585) * std::exp(-0.3 / 0.1);
+  for (double Vs : {0.2, 0.45, 0.55, 0.58}) {
+    const double g_cs = (2 - Vs) / (2 * std::pow(1 - Vs, 3));
+    double g0 = g_cs;
+    if (Vs >= c.V_m) {
+      const double t = (Vs - c.V_m) / (Vj - c.V_m), f = 1 - t * t;
+      g0 = f * g_cs + (1 - f) * 2 / (Vj - Vs);
+    }
+    const auto kc = kinetic_coefficients(c, Vs);
+    EXPECT_NEAR(kc.g0, g0, 1e-12 * g0) << "V_s = " << Vs;
+    EXPECT_NEAR(kc.Gc, Vs * g0, 1e-12 * Vs * g0) << "V_s = " << Vs;
+    if (Vs > c.V_m) {  // and not that of V_sd = 0.64
+      auto off = c;
+      off.jamming_friction = false;
+      EXPECT_GT(kc.g0, 1.05 * kinetic_coefficients(off, Vs).g0) << "V_s = " << Vs;
+    }
+  }
+}
+
 // Dilute uniform shear: the model's steady T, p and tau with the option over those without it
 // equal the Grad-moment solution of uniform shear flow over the Navier-Stokes one, found here by
 // solving the steady moment equations for a* = gammadot / nu numerically (bisection):

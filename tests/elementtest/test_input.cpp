@@ -2,6 +2,8 @@
 #include "common.hpp"
 
 #include <fstream>
+#include <string>
+#include <vector>
 
 namespace {
 
@@ -110,4 +112,41 @@ TEST(ElementInput, BadDataProgrammesAreErrors) {
   gt::ElementTest t = tf.test;  // a data programme with no data (the API without a data file)
   t.programme.data_control.clear();
   EXPECT_THROW(gt::run_element_test(t, pset("frictional_element")), granflow::io::InputError);
+}
+
+// A strain the data programme follows is a fraction: a column in per cent (values up to 26) gets a
+// warning naming the file, the line and the column; a stray 1e300 is an error naming its line,
+// as is any value whose change takes the programme past a finite time (not "never changes").
+TEST(ElementInput, ImplausibleDataProgrammeValuesAreNamed) {
+  static std::vector<std::string> warnings;
+  warnings.clear();
+  granflow::io::set_warning_sink([](const std::string& l) { warnings.push_back(l); });
+  const std::string head = "[test]\nprogramme = \"data\"\npath = \"drained_triaxial\"\ncontrol_column = \"eps_a\"\n";
+  write("fraction.csv", "eps_a\n0\n0.1\n0.26\n");
+  gt::load_test_file(write("p1.toml", head + "data_file = \"fraction.csv\"\n"));
+  EXPECT_TRUE(warnings.empty());
+  write("percent.csv", "eps_a\n0\n10\n26\n20\n");
+  gt::load_test_file(write("p2.toml", head + "data_file = \"percent.csv\"\n"));
+  ASSERT_EQ(warnings.size(), 1u);
+  for (const char* part : {"percent.csv:4", "column 'eps_a'", "26", "per cent"})
+    EXPECT_NE(warnings[0].find(part), std::string::npos) << warnings[0];
+  write("stray.csv", "eps_a\n0\n0.01\n1e300\n0.03\n");
+  const std::string e = error_of(write("p3.toml", head + "data_file = \"stray.csv\"\n"));
+  for (const char* part : {"stray.csv:4", "column 'eps_a'", "1e+300", "not a strain"})
+    EXPECT_NE(e.find(part), std::string::npos) << e;
+  granflow::io::set_warning_sink(nullptr);
+  // a stress the programme follows at 1e-9 Pa/s: 1e300 Pa takes longer than any finite time
+  write("stress.csv", "sigma_a\n0\n1000\n1e300\n2000\n");
+  const gt::TestFile tf = gt::load_test_file(write(
+      "p4.toml", "[test]\nprogramme = \"data\"\npath = \"oedometric\"\ncontrol_column = \"sigma_a\"\n"
+                 "control = \"stress\"\ndata_file = \"stress.csv\"\nrate = 1e-9\n"));
+  try {
+    gt::run_element_test(tf.test, pset("frictional_element"));
+    ADD_FAILURE() << "no error";
+  } catch (const granflow::io::InputError& x) {
+    const std::string m = x.what();
+    for (const char* part : {"stress.csv:4", "column 'sigma_a'", "1e+300", "not finite"})
+      EXPECT_NE(m.find(part), std::string::npos) << m;
+    EXPECT_EQ(m.find("never changes"), std::string::npos) << m;
+  }
 }

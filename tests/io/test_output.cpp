@@ -8,6 +8,8 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -298,6 +300,39 @@ TEST(Manifest, ListsEveryFileWithSizeAndChecksumAndFindsChanges) {
   EXPECT_EQ(p[0], "a.csv: checksum differs");
   EXPECT_EQ(p[1], "b.vtu: missing");
   EXPECT_EQ(p[2], "d.csv: not in the manifest");
+}
+
+// A file of several hashing buffers (1 MiB each) and one byte more: listed with its size on disk
+// and the SHA-256 of all of it, computed here by another program (coreutils' sha256sum); a change
+// of its last byte is found.
+TEST(Manifest, LargeFileIsListedWithItsWholeSizeAndDigest) {
+  Scratch s;
+  const std::size_t size = 3 * 1024 * 1024 + 1;
+  std::string bytes(size, '\0');
+  std::uint32_t x = 12345;
+  for (char& c : bytes) {
+    x = x * 1664525u + 1013904223u;
+    c = static_cast<char>(x >> 24);
+  }
+  io::write_file(s.path("big.vtu"), bytes);
+  io::write_manifest(s.dir.string(), "complete");
+  const io::Manifest m = io::read_manifest(s.dir.string());
+  ASSERT_EQ(m.files.size(), 1u);
+  EXPECT_EQ(m.files[0].size, fs::file_size(s.path("big.vtu")));
+  EXPECT_EQ(m.files[0].size, size);
+  FILE* p = ::popen(("sha256sum '" + s.path("big.vtu") + "'").c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  char digest[65] = {};
+  const bool read = std::fscanf(p, "%64s", digest) == 1;
+  ASSERT_EQ(::pclose(p), 0) << "sha256sum failed";
+  ASSERT_TRUE(read);
+  EXPECT_EQ(m.files[0].sha256, digest);
+  EXPECT_TRUE(io::verify_manifest(s.dir.string()).empty());
+  bytes.back() = static_cast<char>(bytes.back() ^ 1);
+  std::ofstream(s.path("big.vtu"), std::ios::binary) << bytes;
+  const auto changed = io::verify_manifest(s.dir.string());
+  ASSERT_EQ(changed.size(), 1u);
+  EXPECT_EQ(changed[0], "big.vtu: checksum differs");
 }
 
 TEST(RunFolder, FreshCreatesAndLocksThenCompletes) {

@@ -187,6 +187,30 @@ TEST(ParameterSet, CollisionalOptionsReadWriteAndOverride) {
   EXPECT_THROW(io::apply_override(s, "collisional.nothing.c=1"), InputError);
 }
 
+// A bare word after '=' is a string, as for scene keys (granflow mpm --help): a choice can be
+// set without TOML quotes, and a bare word where a number belongs names the key and the type.
+TEST(ParameterSet, OverrideTakesABareWordAsAString) {
+  std::string text = kGood;
+  text.replace(text.find("mu_p = 0.2\n"), 11,
+               "mu_p = 0.2\n\n[collisional.jamming]\nmodel = \"friction\"\nV_sd_inf = 0.58\nmu_star = 0.1\n"
+               "\n[collisional.restitution]\nuse = \"dissipation_only\"\n");
+  auto s = io::load_parameter_set(write_temp("bare_word", text));
+  io::apply_override(s, "collisional.jamming.model=friction");
+  EXPECT_TRUE(s.collisional->jamming_friction);
+  io::apply_override(s, "collisional.restitution.use=\"dissipation_only\"");  // quoted, as before
+  EXPECT_EQ(s.collisional->restitution, RestitutionUse::DissipationOnly);
+  io::apply_override(s, "collisional.restitution.use=everywhere");
+  EXPECT_EQ(s.collisional->restitution, RestitutionUse::Everywhere);
+  try {
+    io::apply_override(s, "frictional.K0=high");
+    ADD_FAILURE() << "accepted a word for a number";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("'frictional.K0': expected a number, got a string"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(io::apply_override(s, "frictional.K0=1 2"), InputError);  // not one value, not a bare word
+}
+
 TEST(ParameterSet, CollisionalOptionErrorsNameTheKey) {
   auto with = [](const std::string& section) { return "mu_p = 0.2\n\n" + section; };
   expect_error("mu_p = 0.2", with("[collisional.jamming]\nmodel = \"friction\"\nV_sd_inf = 0.7\nmu_star = 0.1\n"),

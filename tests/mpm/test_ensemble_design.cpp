@@ -6,9 +6,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <granflow/io/input_error.hpp>
@@ -219,6 +221,26 @@ TEST(EnsembleDesign, GridIsFullFactorialWithTheFirstVariableSlowest) {
     EXPECT_NEAR(g.values[i][0], 0.5 * std::pow(2.0, i), 1e-14) << i;  // geometric levels
     EXPECT_EQ(g.values[i][1], 0.3);
   }
+}
+
+// The levels of a grid range: count of them, the first exactly lo and the last exactly hi (linear
+// and log scale, bounds that are not sums of the steps), increasing in between.
+TEST(EnsembleDesign, GridLevelsReachBothEndsOfTheRange) {
+  for (const char* scale : {"linear", "log"})
+    for (const auto& [lo, hi] : {std::pair{0.1, 0.7}, std::pair{1e-3, 3.7}, std::pair{0.3, 0.45}})
+      for (long count : {2, 3, 7, 10}) {
+        char range[160];
+        std::snprintf(range, sizeof range, "range = [%.17g, %.17g]\ncount = %ld\nscale = \"%s\"", lo, hi, count, scale);
+        const EnsembleDesign d = parse_design("[design]\nmethod = \"grid\"\n" + vary("base.mu", range), "d.toml");
+        const std::vector<double>& v = d.vary[0].values;
+        ASSERT_EQ(static_cast<long>(v.size()), count) << range;
+        EXPECT_EQ(v.front(), lo) << range;
+        EXPECT_EQ(v.back(), hi) << range;
+        for (size_t i = 1; i < v.size(); ++i) EXPECT_GE(v[i], v[i - 1]) << range << ", level " << i;
+        ASSERT_EQ(d.members, count);
+        EXPECT_EQ(d.values.front()[0], lo);
+        EXPECT_EQ(d.values.back()[0], hi);
+      }
 }
 
 TEST(EnsembleDesign, LhsMapsTheHypercubeOntoTheRangesReproducibly) {

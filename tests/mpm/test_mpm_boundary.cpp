@@ -4,7 +4,11 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdint>
+#include <new>
 #include <optional>
+#include <utility>
+#include <vector>
 
 #include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/kernels.hpp>
@@ -283,6 +287,52 @@ TEST(MpmBoundary, FrictionalBasePolylineSlidesAtTheCoulombRate) {
   EXPECT_GT(sliding, 0.03);
   EXPECT_LT(held, 0.1 * sliding);
   EXPECT_LT(held, 2 * no_slip);
+}
+
+// The base's contact normal points into the base, below the segment, for either slope: a node
+// under the polyline moving into it loses its normal velocity (free slip: all of it, as the
+// motion is normal), one moving away or along the segment keeps its velocity.
+TEST(MpmBoundary, BaseSegmentNormalPointsIntoTheBase) {
+  using G = GridLayout<2>;
+  const int nodes[2] = {3, 3};
+  const long n = 9;
+  const long off = contact_table_offset(n);
+  std::vector<std::uint64_t> buf((off + sizeof(ContactTable) + sizeof(BaseSegment)) / 8 + 1);  // 8-byte aligned
+  auto* mask = reinterpret_cast<std::uint8_t*>(buf.data());
+  auto& c = *new (mask + off) ContactTable();
+  c.h = 0.1;
+  c.tol = 1e-10;
+  c.n_segments = 1;
+  c.base_mu = 0;
+  auto* seg = reinterpret_cast<BaseSegment*>(&c + 1);
+  std::vector<double> a(G::N * n, 0.0);
+  GridView<double> gv{a.data(), n, mask, 0};
+  const long I = 4;  // the node at (0.1, 0.1), below either segment (0.2 high at x = 0.1)
+  auto after = [&](double vx, double vy) {
+    gv.f(G::VNEW, I) = vx;
+    gv.f(G::VNEW + 1, I) = vy;
+    contact_node<2, double>(gv, I, nodes, 0.0);
+    return std::pair<double, double>{gv.f(G::VNEW, I), gv.f(G::VNEW + 1, I)};
+  };
+  // falling to the right: into the base is down and to the left
+  *seg = BaseSegment{0.0, 0.3, 0.2, 0.1};
+  auto v = after(-1.0, -1.0);
+  EXPECT_NEAR(v.first, 0.0, 1e-15);
+  EXPECT_NEAR(v.second, 0.0, 1e-15);
+  EXPECT_EQ(after(1.0, 1.0), std::make_pair(1.0, 1.0));    // separating
+  v = after(1.0, -1.0);                                     // along the segment
+  EXPECT_NEAR(v.first, 1.0, 1e-15);
+  EXPECT_NEAR(v.second, -1.0, 1e-15);
+  // rising to the right: into the base is down and to the right
+  *seg = BaseSegment{0.0, 0.1, 0.2, 0.3};
+  v = after(1.0, -1.0);
+  EXPECT_NEAR(v.first, 0.0, 1e-15);
+  EXPECT_NEAR(v.second, 0.0, 1e-15);
+  EXPECT_EQ(after(-1.0, 1.0), std::make_pair(-1.0, 1.0));  // separating
+  // half of a velocity straight down is normal to a 45-degree segment: the tangential half stays
+  v = after(0.0, -2.0);
+  EXPECT_NEAR(v.first, -1.0, 1e-15);
+  EXPECT_NEAR(v.second, -1.0, 1e-15);
 }
 
 namespace {

@@ -94,6 +94,16 @@ void expect_members_equal_single_runs(ModelKind model, ShapeKind shape) {
       EXPECT_EQ(rs.series[i].m.runout, m.series[i].m.runout) << "member " << k << " sample " << i;
       EXPECT_EQ(rs.series[i].m.kinetic_energy, m.series[i].m.kinetic_energy) << "member " << k << " sample " << i;
     }
+    // the tracked points: member k's own particles, sample by sample as in its single run
+    ASSERT_FALSE(rs.tracks.empty());
+    ASSERT_EQ(rs.tracks.size(), m.tracks.size()) << "member " << k;
+    for (size_t i = 0; i < rs.tracks.size(); ++i) {
+      const TrackRow &a = rs.tracks[i], &b = m.tracks[i];
+      EXPECT_TRUE(a.t == b.t && a.t_flow == b.t_flow && a.track == b.track && a.x == b.x && a.y == b.y &&
+                  a.vx == b.vx && a.vy == b.vy && a.p == b.p && a.q == b.q && a.eps_pd == b.eps_pd && a.T == b.T &&
+                  a.eta_c == b.eta_c && a.K_col == b.K_col)
+          << "member " << k << " tracked row " << i << " (point " << a.track << ", t = " << a.t << ")";
+    }
     HostParticles single;
     r->download(single);
     const HostParticles mine = member_state(all, k, n);
@@ -103,9 +113,11 @@ void expect_members_equal_single_runs(ModelKind model, ShapeKind shape) {
     expect_bitwise(single.e, mine.e, "void ratio", k);
     expect_bitwise(single.s, mine.s, "sqrt T", k);
   }
-  // the members differ from each other (the varied values reach the kernels)
-  for (int k = 1; k < 4; ++k)
+  // the members differ from each other (the varied values reach the kernels), their tracks too
+  for (int k = 1; k < 4; ++k) {
     EXPECT_NE(es.members[0].final.kinetic_energy, es.members[k].final.kinetic_energy) << "member " << k;
+    EXPECT_NE(es.members[0].tracks.back().y, es.members[k].tracks.back().y) << "member " << k;
+  }
 }
 
 TEST(MpmEnsemble, FourMembersEqualTheirSingleRunsBitForBit) {

@@ -107,6 +107,15 @@ const std::string kDem =
     "0.40,0.70,0.31,0.33,0.7\n"                   // 4
     "0.50,1.84,0.81,0.25,0.7\n";                  // 5
 
+// An mpm_scene calibration of scene.toml (one stage of 0.002 s) against front.csv.
+const std::string kSceneJob =
+    "params = \"column_collapse\"\n"                                                   // 1
+    "[[free]]\nkey = \"frictional.phi_c_deg\"\nlower = 15.0\nupper = 25.0\n"           // 2-5
+    "[algorithm]\nglobal = \"none\"\nlocal_evaluations = 2\n"                         // 6-8
+    "[[experiments]]\nkind = \"mpm_scene\"\nname = \"column\"\nscene = \"scene.toml\"\n"  // 9-12
+    "backend = \"cpu\"\nprogress = false\n"                                            // 13-14
+    "[experiments.front]\ndata = \"front.csv\"\n";                                     // 15-16
+
 // Shorthands.
 std::string P(const std::string& from, const std::string& to) { return edit(kParams, from, to); }
 std::string T(const std::string& from, const std::string& to) { return edit(kTest, from, to); }
@@ -235,6 +244,7 @@ std::vector<Case> all_cases() {
       {"set_nan", {}, el_set("frictional.K0=nan"), kInput, {"'frictional.K0'", "finite"}},
       {"set_string_value", {}, el_set("collisional.eps_n=\"0.5\""), kInput, {"'collisional.eps_n'", "expected a number, got a string"}},
       {"set_empty_value", {}, el_set("frictional.K0="), kInput, {"--set 'frictional.K0='"}},
+      {"set_bare_word_is_a_string", {}, el_set("frictional.K0=high"), kInput, {"--set 'frictional.K0=high': 'frictional.K0': expected a number, got a string"}},
       {"set_in_test_file", {{"t.toml", edit(kTest, "[test]", "overrides = [\"frictional.xi=-1\"]\n[test]")}}, kEl, kInput, {"t.toml: overrides 'frictional.xi=-1': 'frictional.xi': must be > 0, got -1"}},
 
       // ---- CLI arguments and output files ---------------------------------------------------
@@ -276,6 +286,7 @@ std::vector<Case> all_cases() {
       {"lab_only_comments", {{"lab.csv", "# nothing measured\n"}}, kLabArgs, kInput, {"lab.csv: the file is empty"}},
       {"lab_inf", {{"lab.csv", "strain,q\n0,0\n0.01,inf\n"}}, kLabArgs, kInput, {"lab.csv:3", "not a finite number"}},
       {"lab_truncated_row", {{"lab.csv", "strain,q\n0,0\n0.01"}}, kLabArgs, kInput, {"lab.csv:3"}},
+      {"lab_stray_strain_in_data_programme", {{"t.toml", "params = \"p.toml\"\n[test]\npath = \"drained_triaxial\"\nprogramme = \"data\"\ndata_file = \"lab.csv\"\ncontrol_column = \"strain\"\nrate = 1.0\ne0 = 0.99\nsigma_v0 = 500.0\n"}, {"lab.csv", "strain,q\n0,0\n0.01,120\n1e300,130\n"}}, kEl, kInput, {"lab.csv:4", "column 'strain': 1e+300 is not a strain"}},
       {"lab_file_missing", {{"lab.csv", kAbsent}}, kLabArgs, kInput, {"lab.csv", "cannot open file"}},
 
       // ---- calibration job (granflow calibrate) ----------------------------------------------
@@ -339,6 +350,14 @@ std::vector<Case> all_cases() {
       {"ens_duplicate_key", {{"d.toml", design("frictional.phi_c_deg", "range = [18.0, 22.0]") + "[[vary]]\nkey = \"frictional.phi_c_deg\"\nrange = [19.0, 20.0]\n"}}, kEns, kInput, {"d.toml:8", "'frictional.phi_c_deg' is varied twice", "at line 4"}},
       {"ens_too_large_for_memory", {{"d.toml", edit(design("frictional.phi_c_deg", "range = [18.0, 22.0]"), "members = 4", "members = 100000")}}, ens_with({"--set", "grid.h=0.001", "--set", "time.dt=1e-5"}), kInput, {"d.toml: 100000 members need", "at most", "members fit"}},
       {"ens_members_differ_in_grid", {{"d.toml", "[design]\nmethod = \"list\"\n[[vary]]\nkey = \"grid.h\"\nvalues = [0.02, 0.025]\n"}}, kEns, kInput, {"d.toml: grid: member 1 differs from member 0 in the grid", "members may differ in"}},
+      {"ens_range_typo", {{"d.toml", design("frictional.phi_c_deg", "rnage = [18.0, 22.0]")}}, kEns, kInput, {"d.toml:4", "'vary[0].range': required key is missing", "'vary[0].rnage'", "a typo?"}},
+      {"calib_scene_front_past_end", {{"job.toml", kSceneJob}, {"front.csv", "t,x\n0,0.1\n0.001,0.1\n0.003,0.1\n"}}, kCal, kInput, {"front.csv:4", "t = 0.003 s", "past the end of the run", "0.002 s after the release"}},
+      {"ens_backend_cuda_unavailable", {{"d.toml", design("frictional.phi_c_deg", "range = [18.0, 22.0]")}}, ens_with({"--backend", "cuda"}), kInput, {"--backend cuda: ", "; use --backend cpu"}},
+      {"mpm_backend_cuda_unavailable", {}, mpm_with({"--backend", "cuda"}), kInput, {"--backend cuda: ", "; use --backend cpu"}},
+      // ---- the shipped data folder (GRANFLOW_DATA_DIR) ---------------------------------------
+      {"data_dir_wrong", {}, {"element", "t.toml", "--params", "element_test", "--out", "out.csv"}, kInput, {"element_test: no such file", "GRANFLOW_DATA_DIR = '/nonexistent/data'", "/nonexistent/data/params"}, {{"GRANFLOW_DATA_DIR", "/nonexistent/data"}}},
+      {"data_dir_relative", {}, {"element", "t.toml", "--params", "element_test", "--out", "out.csv"}, kInput, {"element_test: no such file", "GRANFLOW_DATA_DIR = 'data'", "relative"}, {{"GRANFLOW_DATA_DIR", "data"}}},
+      {"figures_data_dir_wrong", {}, {"figures", "--out", "figs"}, kInput, {"GRANFLOW_DATA_DIR = '/nonexistent/data'"}, {{"GRANFLOW_DATA_DIR", "/nonexistent/data"}}},
       {"bench_mpm_set_unknown_table", {}, {"bench", "mpm", "scene.toml", "--set", "gird.h=0.01"}, kInput, {"scene.toml: --set 'gird.h=0.01': unknown key 'gird'"}},
   };
 }

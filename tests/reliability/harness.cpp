@@ -85,6 +85,10 @@ int start_in(const std::string& dir, const std::string& program, const std::vect
       const rlimit r{static_cast<rlim_t>(setup.file_size_limit), static_cast<rlim_t>(setup.file_size_limit)};
       if (::setrlimit(RLIMIT_FSIZE, &r) != 0) ::_exit(125);
     }
+    if (setup.address_space_limit >= 0) {
+      const rlimit r{static_cast<rlim_t>(setup.address_space_limit), static_cast<rlim_t>(setup.address_space_limit)};
+      if (::setrlimit(RLIMIT_AS, &r) != 0) ::_exit(125);
+    }
     std::vector<char*> av;
     av.push_back(const_cast<char*>(program.c_str()));
     for (const auto& a : args) av.push_back(const_cast<char*>(a.c_str()));

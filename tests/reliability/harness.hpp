@@ -10,6 +10,7 @@
 #include <map>
 #include <ostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace reliability {
@@ -24,6 +25,7 @@ struct Case {
   std::vector<std::string> argv;    // arguments; argv[0] "@csv" runs granflow_csv_probe instead of granflow
   int exit_code;                    // expected exit status (2: input error, 1: run failure, 1xx: CLI11)
   std::vector<std::string> stderr_has;  // required substrings of the one message
+  std::vector<std::pair<std::string, std::string>> env = {};  // set in the child (after GRANFLOW_DATA_DIR)
 };
 
 inline void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
@@ -41,6 +43,7 @@ struct Outcome {
 struct ChildSetup {
   std::vector<std::pair<std::string, std::string>> env;
   long file_size_limit = -1;  // bytes; < 0: none
+  long address_space_limit = -1;  // bytes (RLIMIT_AS); < 0: none
   std::string tag = "";       // stdout/stderr go to dir/../stdout<tag>.txt (runs at the same time)
 };
 

@@ -251,3 +251,41 @@ TEST(MpmRestartProcess, RestartNeedsTheSameOverrides) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   expect_same_files(w, "ref", "o");
 }
+
+// A second Ctrl-C while the interrupt's checkpoint is written (the only checkpoint of a run
+// without periodic ones; the write slowed to 0.4 s a step by the fault hook) lets the write
+// finish: the run stops as after one signal, leaves no temporary, and --restart ends with the
+// uninterrupted run's files.
+TEST(MpmRestartProcess, SecondSigintDuringTheCheckpointWriteKeepsIt) {
+  Work w("second_sigint");
+  w.write("scene.toml", edit(slurp(w.dir / "scene.toml"), "checkpoint_dt = 0.02", ""));
+  const Outcome ref = w.run("ref");
+  ASSERT_EQ(ref.exit_code, 0) << ref.err;
+
+  ChildSetup slow;
+  slow.env = {{"GRANFLOW_FAULT_FILE", "checkpoint.bin"}, {"GRANFLOW_FAULT_DELAY_MS", "400"}};
+  const int pid = start_in(w.dir.string(), GRANFLOW_BINARY, w.args("o"), slow);
+  auto wait_for = [&](auto&& ready) {
+    const auto t0 = std::chrono::steady_clock::now();
+    while (!ready() && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60))
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    return ready();
+  };
+  // the time loop runs (its handler is installed) once the frame at t = 0 is listed
+  ASSERT_TRUE(wait_for([&] { return fs::exists(w.dir / "o/frames.pvd"); }));
+  ::kill(pid, SIGINT);
+  const fs::path tmp = w.dir / ("o/checkpoint.bin.tmp-" + std::to_string(pid));
+  const bool writing = wait_for([&] { return fs::exists(tmp); });
+  ::kill(pid, SIGINT);
+  const Outcome i = finish(pid, w.dir.string());
+  ASSERT_TRUE(writing) << "no checkpoint write seen: " << i.err;
+  ASSERT_FALSE(i.signaled) << "killed by signal " << i.signal << " during the checkpoint write";
+  EXPECT_EQ(i.exit_code, 130) << i.err;
+  EXPECT_NE(i.err.find("granflow: finishing the checkpoint first"), std::string::npos) << i.err;
+  ASSERT_TRUE(fs::exists(w.dir / "o/checkpoint.bin"));
+  for (const auto& [name, bytes] : w.files("o")) EXPECT_EQ(name.find(".tmp"), std::string::npos) << name;
+
+  const Outcome r = w.run("o", {"--restart"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  expect_same_files(w, "ref", "o");
+}

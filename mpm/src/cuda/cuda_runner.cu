@@ -39,6 +39,13 @@ bool cuda_backend_available() {
   return cudaGetDeviceCount(&n) == cudaSuccess && n > 0;
 }
 
+std::string cuda_unavailable_reason() {
+  int n = 0;
+  const cudaError_t e = cudaGetDeviceCount(&n);
+  if (e != cudaSuccess) return std::string("no CUDA device found (") + cudaGetErrorString(e) + ")";
+  return n > 0 ? std::string() : std::string("no CUDA device found");
+}
+
 int cuda_device_count() {
   int n = 0;
   return cudaGetDeviceCount(&n) == cudaSuccess ? n : 0;
@@ -53,7 +60,7 @@ bool cuda_memory_info(std::size_t& free, std::size_t& total) {
 }
 
 std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& su, const CudaOptions& options) {
-  if (!cuda_backend_available()) throw std::runtime_error("no CUDA device found; use --backend cpu");
+  if (const std::string why = cuda_unavailable_reason(); !why.empty()) throw std::runtime_error(why + "; use --backend cpu");
   return detail::dispatch(su, MakeCuda{options});
 }
 

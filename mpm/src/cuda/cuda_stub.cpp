@@ -5,8 +5,9 @@
 
 namespace granflow::mpm {
 
+std::string cuda_unavailable_reason() { return "this granflow was built without CUDA (nvcc not found)"; }
 std::unique_ptr<Runner> make_cuda_runner(const SceneSetup&, const CudaOptions&) {
-  throw std::runtime_error("this granflow was built without CUDA (nvcc not found); use --backend cpu");
+  throw std::runtime_error(cuda_unavailable_reason() + "; use --backend cpu");
 }
 bool cuda_backend_available() { return false; }
 bool cuda_memory_info(std::size_t&, std::size_t&) { return false; }

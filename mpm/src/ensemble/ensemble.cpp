@@ -39,9 +39,16 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
   sum.device = runner.device();
   sum.members.resize(nm);
   const bool files = !opt.out_dir.empty();
+  auto interrupted = [&] { return opt.interrupt && *opt.interrupt; };
   if (files) {
     io::make_folder(opt.out_dir);
-    for (int k = 0; k < nm; ++k) io::make_folder(member_dir(opt.out_dir, opt.first_member + k));
+    for (int k = 0; k < nm; ++k) {
+      if (interrupted()) {  // nothing run yet: no member files
+        sum.interrupted = *opt.interrupt;
+        return sum;
+      }
+      io::make_folder(member_dir(opt.out_dir, opt.first_member + k));
+    }
   }
 
   double t_release = 0;
@@ -146,7 +153,12 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
   write_frames(0.0, "");
   auto last_print = wall0;
   int n_alive = nm;
-  bool stop = false;
+  bool stop = interrupted();
+  if (stop) sum.interrupted = *opt.interrupt;
+  // Spans of about kSpanWall seconds at most (from the last span's wall time per step): an
+  // interrupt is seen within that however many members run. Spans only group the steps.
+  constexpr double kSpanWall = 0.2;
+  double step_wall = 0;
   for (int si = 0; si < static_cast<int>(sc.stages.size()) && !stop; ++si) {
     const Stage& st = sc.stages[si];
     runner.set_stage(si, st.damping, st.flip.value_or(sc.flip));
@@ -166,8 +178,12 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
       span.dt_max = sc.dt;
       span.t_land = next_event;
       span.t_until = t_until;
-      span.max_steps = span_length(span, std::max(1L, opt.max_span));
+      const long cap = std::max(1L, opt.max_span);
+      span.max_steps = span_length(
+          span, step_wall > 0 ? std::clamp(static_cast<long>(kSpanWall / step_wall), 1L, cap) : std::min(cap, 4L));
+      const auto span_start = Clock::now();
       const SpanResult r = runner.advance_span(span);
+      if (r.steps > 0) step_wall = std::chrono::duration<double>(Clock::now() - span_start).count() / double(r.steps);
       step += r.steps;
       if (!r.ok) {
         // The failed step is complete for the members that did not fail in it.
@@ -212,7 +228,7 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
         write_frames(t, "");
         ++next_out;
       }
-      if (opt.interrupt && *opt.interrupt) {
+      if (interrupted()) {
         sum.interrupted = *opt.interrupt;
         stop = true;
         break;

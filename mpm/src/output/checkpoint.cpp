@@ -272,7 +272,9 @@ Checkpoint decode_checkpoint(std::string_view b) {
 }
 
 void write_checkpoint(const std::string& path, const Checkpoint& c) {
-  io::write_file(path, encode_checkpoint(c), io::Durability::Sync);
+  const std::string bytes = encode_checkpoint(c);
+  const io::CriticalWrite critical;  // a second Ctrl-C waits for it: the checkpoint stays usable
+  io::write_file(path, bytes, io::Durability::Sync);
 }
 
 std::vector<std::string> checkpoint_outputs(const Checkpoint& c) {

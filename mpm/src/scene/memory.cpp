@@ -1,4 +1,5 @@
 #include <granflow/mpm/layout.hpp>
+#include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/memory.hpp>
 
 #include <cstdint>
@@ -32,6 +33,48 @@ MemoryEstimate estimate_memory(const SceneSetup& su) {
   const double host_fields = 3.0 * sc.dim + 1 + 6 + 6 + sc.dim * sc.dim + 3;  // x, v, m, sig, sigf, L, eps, e, s
   m.host_bytes = n * host_fields * sizeof(double);
   return m;
+}
+
+namespace {
+
+template <class T>
+double bytes_of(const std::vector<T>& v) {
+  return double(v.capacity()) * sizeof(T);
+}
+
+// One member's set-up as held: the particle arrays, masks, tracked indices and the scene.
+double setup_bytes(const SceneSetup& su) {
+  const HostParticles& p = su.particles;
+  double b = sizeof(SceneSetup);
+  for (const auto* v : {&p.x, &p.v, &p.m, &p.sig, &p.sigf, &p.L, &p.eps, &p.e, &p.s}) b += bytes_of(*v);
+  for (const auto& m : su.stage_masks) b += bytes_of(m) + sizeof(m);
+  b += bytes_of(su.tracked) + bytes_of(su.origin) + bytes_of(su.nodes);
+  const Scene& sc = su.scene;
+  for (const auto& [key, line] : sc.lines) b += 64 + key.capacity() + sizeof(line);  // map node
+  b += double(sc.stages.size()) * sizeof(Stage) + double(sc.tracks.size()) * sizeof(Track) +
+       double(sc.walls.size()) * sizeof(Wall) + double(sc.bodies.size()) * sizeof(Body);
+  for (const Body& body : sc.bodies) b += bytes_of(body.poly_x) + bytes_of(body.poly_y);
+  return b;
+}
+
+}  // namespace
+
+EnsembleMemory estimate_ensemble_memory(const SceneSetup& su) {
+  const Scene& sc = su.scene;
+  const MemoryEstimate m = estimate_memory(su);
+  const double n = double(su.particles.n), D = sc.dim;
+  EnsembleMemory e;
+  // the runner, and the snapshot of a sample (x, v and T: Runner::snapshot)
+  e.runner_per_member = m.device_bytes() + n * (2 * D + 1) * m.scalar_bytes;
+  // samples: every series_dt, at the output times and at each stage's end
+  double samples = 2 + double(sc.output.times.size()) + double(sc.stages.size());
+  if (sc.output.series_dt > 0) samples += sc.duration() / sc.output.series_dt;
+  const double rows = samples * (sizeof(SeriesRow) + double(sc.tracks.size()) * sizeof(TrackRow));
+  const double surface = 2 * 16 * (sc.size.empty() ? 0.0 : sc.size[0] / sc.h + 2);  // free surface and a copy
+  const double frames = n * 8 * (2 * (2 * D + 1) + (2 * D + 10));  // two light frames, one with diagnostics
+  // 2 rows: a vector's growth; 1.15: the allocator's own (block headers, pages kept after a free)
+  e.host_per_member = 1.15 * (2 * setup_bytes(su) + frames + 2 * rows + surface);
+  return e;
 }
 
 std::string memory_line(const SceneSetup& su) {

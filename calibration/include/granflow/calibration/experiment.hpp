@@ -28,6 +28,7 @@ struct Curve {
   std::vector<int> branch;
   double reversal_tolerance = 0;
   std::vector<long> lines;   // file line of each point (first of averaged duplicates)
+  std::string file;          // the data file the points come from
   double weight = 1.0;
   // Standard deviation of the data in data units for the Gaussian likelihood of the ensemble
   // method (NaN: the job's default for its kind; docs/calibration.md, "Uncertainty").
@@ -80,6 +81,7 @@ struct DataSelection {
   std::string file;                      // resolved path
   std::string abscissa;                  // column
   std::string quantity;                  // time | strain | shear_rate | solid_fraction
+  std::string model_abscissa;            // the model output the abscissa is (element tests; may be empty)
   std::vector<std::pair<std::string, double>> filter;
   std::vector<std::string> split_by;
   std::vector<std::string> extra_columns;  // columns the experiment reads per group (constant within it)

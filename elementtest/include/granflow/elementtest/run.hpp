@@ -66,6 +66,7 @@ struct RateProgramme {
   // `rate` is |d control / dt| [1/s or Pa/s] and the solvers restart only where it reverses.
   Control control = Control::Strain;
   std::vector<double> data_control;
+  std::vector<long> data_lines;  // file line of each value (messages; may be empty)
   std::string data_file, control_column;
 };
 

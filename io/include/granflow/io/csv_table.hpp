@@ -41,4 +41,10 @@ CsvHeaderLine find_csv_header(std::istream& in);
 // Errors unless the column increases strictly (abscissae of a curve).
 void require_strictly_increasing(const CsvColumns& t, const std::string& name);
 
+// A column of strains (fractions): a value above 1 in magnitude gets a warning (io::warn) naming
+// the file, the line of the largest and the column (per cent?); one above kMaxStrainPerCent is an
+// InputError (no strain, in per cent or not).
+inline constexpr double kMaxStrainPerCent = 100.0;
+void check_strain_column(const CsvColumns& t, const std::string& name);
+
 }  // namespace granflow::io

@@ -68,6 +68,18 @@ void write_file(const std::string& path, std::string_view bytes, Durability dura
 std::string temporary_name(const std::string& path);
 bool is_temporary_name(const std::string& file_name);
 
+// A write that a second Ctrl-C should not cut short (a checkpoint, the one a --restart needs):
+// while one lives, critical_write_active() is true, and granflow's SIGINT/SIGTERM handler
+// (cli/mpm_common.hpp) lets it finish before the process stops. Async-signal-safe to query.
+class CriticalWrite {
+ public:
+  CriticalWrite();
+  ~CriticalWrite();
+  CriticalWrite(const CriticalWrite&) = delete;
+  CriticalWrite& operator=(const CriticalWrite&) = delete;
+};
+bool critical_write_active();
+
 // Creates `dir` and its parents; OutputError when it cannot (a regular file in the way, a
 // read-only or forbidden parent, ...). Returns true when it created the last component.
 bool make_folder(const std::string& dir);
@@ -89,6 +101,8 @@ using WriteFault = std::function<int(const std::string& path, WriteStep step, st
 //   GRANFLOW_FAULT_FILE   only targets whose path contains this text (default: every file)
 //   GRANFLOW_FAULT_BYTES  write: bytes the matching files may take in all before it fails (default 0)
 //   GRANFLOW_FAULT_ERRNO  ENOSPC (default), EDQUOT, EIO, EROFS, EACCES or EFBIG
+//   GRANFLOW_FAULT_DELAY_MS  every step of the matching files first waits this long; alone
+//                         (without _AT or _BYTES) nothing fails: a slow disk
 // Once a step has failed, every later matching step fails too, as on a disk that stays full.
 WriteFault set_write_fault(WriteFault hook);
 // The hook in force for one step (0: none); used by this layer and the lock file writer.

@@ -23,4 +23,9 @@ std::string script_path(const std::string& name);
 // The folder of the running program (from /proc/self/exe); "" when it cannot be read.
 std::string program_directory();
 
+// Where data_directory() came from and what was searched, for messages about a missing shipped
+// file: "GRANFLOW_DATA_DIR = 'D'[, a relative path: from the folder C]" or "GRANFLOW_DATA_DIR is
+// not set; searched: ...".
+std::string data_directory_origin();
+
 }  // namespace granflow::io

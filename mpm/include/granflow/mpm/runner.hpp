@@ -267,6 +267,8 @@ std::unique_ptr<Runner> make_cpu_runner(const SceneSetup& setup);
 // Defined by the CUDA backend library; throws when CUDA was not built or no device exists.
 std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& setup, const CudaOptions& options = {});
 bool cuda_backend_available();
+// Why the CUDA backend cannot run here ("" when it can): built without CUDA, or no device visible.
+std::string cuda_unavailable_reason();
 // Free and total memory of the current CUDA device; false without CUDA or a device.
 bool cuda_memory_info(std::size_t& free, std::size_t& total);
 // Visible CUDA devices (0 without CUDA); the device of the calling thread's later CUDA work.
