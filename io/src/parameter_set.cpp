@@ -229,7 +229,7 @@ void apply_override(ParameterSet& set, const std::string& assignment, const std:
       a = b + 1;
     }
     if (!tbl) throw InputError(who + "the set has no [" + section + "] table");
-    // A bare word is a string, as for scene keys (mpm/src/scene_file.cpp parse_value).
+    // A bare word is a string, as for scene keys (mpm/src/scene/scene_file.cpp parse_value).
     const bool bare_word = !value.empty() && value.find_first_of("\"'[]{}=#\\ \t\r\n") == std::string::npos;
     toml::table parsed;
     try {
