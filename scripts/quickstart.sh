@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set-up to result: install the program's packages, build the program, run the default example jobs.
 # Only build/granflow is built (no tests, no Python module); CUDA only where a GPU is present.
-# scripts/test.sh later in the same build/ turns the tests and the rest back on.
+# scripts/test.sh later in the same build/ turns the tests and the rest on.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # OpenMP threads that spin at each barrier make the small MPM example 10x slower on a loaded
@@ -15,10 +15,15 @@ took() {  # took WHAT: the wall time since the last call (docs/install.md, "Time
 scripts/install_deps.sh
 took "packages"
 t_build=$SECONDS
-cuda=OFF
-if nvidia-smi -L >/dev/null 2>&1; then cuda=ON; fi
-scripts/build.sh --target granflow -DGRANFLOW_TESTS=OFF -DGRANFLOW_CUDA=$cuda
-took "build (CUDA $cuda)"
+# A build/ configured before (e.g. by scripts/test.sh) keeps its options: only the program is built.
+opts=() what="existing build/ options"
+if [ ! -f build/CMakeCache.txt ]; then
+  cuda=OFF
+  if nvidia-smi -L >/dev/null 2>&1; then cuda=ON; fi
+  opts=(-DGRANFLOW_TESTS=OFF -DGRANFLOW_CUDA=$cuda) what="tests off, CUDA $cuda"
+fi
+scripts/build.sh --target granflow "${opts[@]}"
+took "build ($what)"
 echo
 echo "== granflow element: undrained simple shear, paper's element-test set (Fig. 6 protocol) =="
 ./build/granflow element
