@@ -1,7 +1,13 @@
 #!/usr/bin/env bash
-# Configures and builds granflow in build/ (Release). Extra arguments go to CMake's configure step.
+# Configures and builds granflow in build/ (Release). Extra arguments go to CMake's configure step;
+# a leading `--target NAME` builds only that target (scripts/quickstart.sh: the program alone).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc 2>/dev/null || echo 2)
+target=()
+if [ "${1:-}" = "--target" ]; then
+  target=(--target "$2")
+  shift 2
+fi
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
-cmake --build build -j"$jobs"
+cmake --build build -j"$jobs" "${target[@]}"

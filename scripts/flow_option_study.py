@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Runs the option study of issue 25 and prints its table (docs/calibration.md, "Option study").
+"""Runs the option study of issue 25 and prints its table (docs/calibration_results.md, "Option study").
 
 usage: flow_option_study.py [GRANFLOW] [OUT_DIR]
 Every job of data/calibration/flow_study/ (scripts/make_flow_study.py) is fitted to the ten DEM

@@ -1,13 +1,27 @@
 #!/usr/bin/env bash
 # Installs the Debian packages granflow needs (no other network access is used).
+#   scripts/install_deps.sh          the program and its example jobs (scripts/quickstart.sh)
+#   scripts/install_deps.sh --tests  the above plus what the tests need (scripts/test.sh, .ci/run)
 # CUDA (nvcc) is optional: when /usr/local/cuda/bin/nvcc exists the CUDA targets are built too.
 set -euo pipefail
-packages=(build-essential cmake libeigen3-dev libsundials-dev libnlopt-cxx-dev libgtest-dev libfccp-dev
-          libcli11-dev libtomlplusplus-dev python3 python3-matplotlib
-          clang libclang-rt-dev  # clang + libFuzzer: scripts/fuzz.sh
-          gfortran)              # the UMAT's Fortran calling-convention test (tests/umat)
-packages+=(pybind11-dev python3-dev python3-numpy python3-pytest)  # Python module: docs/python.md
-packages+=(libopenmpi-dev openmpi-bin)  # optional MPI: ensembles and calibration over ranks (docs/mpm_ensembles.md)
+tests=0
+case "${1:-}" in
+  "") ;;
+  --tests) tests=1 ;;
+  *) echo "usage: $0 [--tests]" >&2; exit 2 ;;
+esac
+# The program: compilers, CMake, the libraries it links, and python3 + matplotlib for the PNGs
+# that figures, calibrate and mpm write beside their CSVs.
+packages=(build-essential cmake libeigen3-dev libsundials-dev libnlopt-cxx-dev libfccp-dev
+          libcli11-dev libtomlplusplus-dev python3 python3-matplotlib)
+if [ "$tests" -eq 1 ]; then
+  packages+=(libgtest-dev
+             clang libclang-rt-dev  # clang + libFuzzer: scripts/fuzz.sh
+             gfortran)              # the UMAT's Fortran calling-convention test (tests/umat)
+  packages+=(pybind11-dev python3-dev python3-numpy python3-pytest)  # Python module: docs/python.md
+  packages+=(libopenmpi-dev openmpi-bin)  # optional MPI: ensembles and calibration over ranks (docs/mpm_ensembles.md)
+  packages+=(libgdal-dev)  # optional; not used by CMake yet (kept for the terrain work to come)
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Writes data/calibration/flow_study/: one start set and one joint job per option combination
-of the collisional part (issue 25; docs/calibration.md, "Flow curves across friction")."""
+of the collisional part (issue 25; docs/calibration_results.md, "Flow curves across friction")."""
 import os
 
 OUT = os.path.join(os.path.dirname(__file__), "..", "data", "calibration", "flow_study")
@@ -46,7 +46,7 @@ def free(key, lo, hi):
 
 
 def job(name, opts, what):
-    s = ("# Option study of issue 25 (docs/calibration.md, \"Flow curves across friction\"): one set of\n"
+    s = ("# Option study of issue 25 (docs/calibration_results.md, \"Flow curves across friction\"): one set of\n"
          f"# constants fitted to all ten DEM groups at once; {what}. Written by scripts/make_flow_study.py.\n")
     s += f'name = "flow_{name}"\nparams = "{name}.toml"\noutput = "flow_{name}"\n'
     if "J" in opts:

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# Set-up to result: install, build, and run every test with ctest.
+# Set-up to result: install every package, build everything, and run every test with ctest.
+# The options are set explicitly: a build/ that scripts/quickstart.sh configured (tests and CUDA
+# off, Python module and MPI not found then) is switched back to the full build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/install_deps.sh
-scripts/build.sh
+scripts/install_deps.sh --tests
+scripts/build.sh -DGRANFLOW_TESTS=ON -DGRANFLOW_CUDA=ON -DGRANFLOW_PYTHON=ON -DGRANFLOW_MPI=ON
 cd build
 ctest --output-on-failure -j"$(nproc 2>/dev/null || echo 2)"

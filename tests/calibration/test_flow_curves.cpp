@@ -51,7 +51,7 @@ double worst(const std::vector<CrossValidationRow>& rows) {
 
 }  // namespace
 
-// The chosen options against MODEL.md's model on the ten DEM groups (docs/calibration.md, option
+// The chosen options against MODEL.md's model on the ten DEM groups (docs/calibration_results.md, option
 // table): the scores recorded there, the options' gain on every table, the speed goals.
 TEST(FlowCurves, JointJobScoresAndCrossValidatesAsRecorded) {
   const JobRun joint = run_job("dem_collisional_joint.toml");
@@ -91,7 +91,7 @@ TEST(FlowCurves, JointJobScoresAndCrossValidatesAsRecorded) {
               "joint job with cross-validation %.2f s\n",
               wf, wg, wfr, base.report.fitted[worst_group(base.report.fitted, 0)].rmse[0], worst(base.report.leave_one_group),
               worst(base.report.leave_one_friction), joint.seconds);
-  // docs/calibration.md: 0.384, 0.432, 0.384 against 0.729, 0.776, 1.032
+  // docs/calibration_results.md: 0.384, 0.432, 0.384 against 0.729, 0.776, 1.032
   EXPECT_NEAR(wf, 0.384, 0.005);
   EXPECT_NEAR(wg, 0.432, 0.005);
   EXPECT_NEAR(wfr, 0.384, 0.005);

@@ -1,7 +1,7 @@
 // Round trips through the element-test driver: curves generated from a known parameter set,
 // 2 % Gaussian noise (fixed seed), a start 30 % away, and the identifiable parameters recovered
 // within 5 %. Which parameters are identifiable from which tests is decided by the Jacobian
-// analysis at the optimum and stated in docs/calibration.md.
+// analysis at the optimum and stated in docs/calibration_results.md.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -1,5 +1,5 @@
-// Steady-shear flow curves across groups (issue 25; docs/calibration.md, "Flow curves across
-// friction"): each group (one friction and restitution of the data) scored over solid-fraction
+// Steady-shear flow curves across groups (issue 25; docs/calibration_results.md, "Flow
+// curves across friction"): each group (one friction and restitution of the data) scored over solid-fraction
 // windows by the log-RMSE of p, s and T, the error of s/p against the inertial number, and the
 // cross-validation tables: leave one group out, and leave one friction level out.
 #pragma once

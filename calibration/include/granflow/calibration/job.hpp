@@ -76,7 +76,7 @@ struct SteadyShearSource {
   bool predict = false;
 };
 
-// [cross_validation] of a steady-shear job (docs/calibration.md, "Flow curves across friction").
+// [cross_validation] of a steady-shear job (docs/calibration_results.md, "Flow curves across friction").
 struct CrossValidationSpec {
   bool present = false;
   std::vector<std::pair<double, double>> windows;  // solid-fraction windows [lo, hi) of the scores
