@@ -19,6 +19,9 @@ export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:detect_stack_use_after_return
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 # Open MPI's own allocations at exit (the Mpi.* tests run granflow under mpirun): not granflow's leaks
 export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/scripts/lsan_openmpi.supp:print_suppressions=0}
+# ctest -j runs OpenMP tests side by side on few cores: threads spinning at barriers would wait on
+# each other's time slices (docs/reliability_ci.md)
+export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
 skip=$(sed -e 's/#.*//' -e 's/[[:space:]]//g' -e '/^$/d' tests/plain_only.txt | paste -sd'|' -)
 cd build-asan
 ctest --output-on-failure -j"$jobs" --timeout 1500 -LE plain_only -E "^($skip)\$"
