@@ -24,6 +24,6 @@ export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/scripts/lsan_openmpi.supp:
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
 skip=$(sed -e 's/#.*//' -e 's/[[:space:]]//g' -e '/^$/d' tests/plain_only.txt | paste -sd'|' -)
 cd build-asan
-ctest --output-on-failure -j"$jobs" --timeout 1500 -LE plain_only -E "^($skip)\$"
+ctest --output-on-failure -j"$jobs" --timeout 1500 -E "^($skip)\$"
 end=$(date +%s)
 echo "sanitize: build $((built - start)) s, tests $((end - built)) s, total $((end - start)) s"

@@ -1,6 +1,6 @@
 // The scene round trip of the ensemble method: 288 runs of the 20 mm column, about 2 minutes on
-// two cores. Its own executable, labelled plain_only: the sanitizer stage covers its code through
-// SceneExperiment.* (mpm_scene batches) and the ensemble calibration tests (docs/reliability_ci.md).
+// two cores. Its own executable, left to the plain stage (tests/plain_only.txt): the sanitizer
+// stage runs its code in SceneExperiment.* and the ensemble calibration tests.
 #include <gtest/gtest.h>
 
 #include <cmath>
