@@ -19,7 +19,9 @@ if [ "$tests" -eq 1 ]; then
              clang libclang-rt-dev  # clang + libFuzzer: scripts/fuzz.sh
              gfortran)              # the UMAT's Fortran calling-convention test (tests/umat)
   packages+=(pybind11-dev python3-dev python3-numpy python3-pytest)  # Python module: docs/python.md
-  packages+=(libopenmpi-dev openmpi-bin)  # optional MPI: ensembles and calibration over ranks (docs/mpm_ensembles.md)
+  # optional MPI: ensembles and calibration over ranks (docs/mpm_ensembles.md); libsundials-dev
+  # already pulls in libopenmpi-dev and gfortran, they are named for what the tests use
+  packages+=(libopenmpi-dev openmpi-bin)
   packages+=(libgdal-dev)  # optional; not used by CMake yet (kept for the terrain work to come)
 fi
 missing=()

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set-up to result: install every package, build everything, and run every test with ctest.
 # The options are set explicitly: a build/ that scripts/quickstart.sh configured (tests and CUDA
-# off, Python module and MPI not found then) is switched back to the full build.
+# off, no pybind11 then) is switched to the full build; CMake would keep the cached values.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install_deps.sh --tests
