@@ -19,6 +19,7 @@
 #include <granflow/io/input_error.hpp>
 #include <granflow/io/raster.hpp>
 #include <granflow/mpm/driver.hpp>
+#include <granflow/mpm/ensemble.hpp>
 #include <granflow/mpm/kernels.hpp>
 #include <granflow/mpm/scene_file.hpp>
 
@@ -409,6 +410,24 @@ TEST(Terrain, LayerOnA20DegreeSlopeCarriesItsWeight) {
   ASSERT_GT(count[0], 10);
   EXPECT_GT(lowest, -0.25 * su.spacing);  // held at nodes: points sink into the ground by a fraction of a cell at most
   EXPECT_NEAR(m_all / e_all, 1.0, 0.25);
+}
+
+// Ensembles are 2D: members of a terrain scene are refused naming the key.
+TEST(Terrain, EnsemblesRefuseTerrain) {
+  auto ground = raster(-0.05, -0.05, 0.1, 6, 6, [](double, double) { return 0.0; });
+  Scene sc = terrain_scene({0.2, 0.2, 0.2}, 0.04, ground, {0.0, 0.0, 0.0}, 0.3);
+  Body b;
+  b.box_min = {0.04, 0.04, 0.04};
+  b.box_max = {0.12, 0.12, 0.12};
+  sc.bodies = {b};
+  const SceneSetup su = make_setup(sc);
+  try {
+    make_ensemble_setup({su, su});
+    FAIL() << "no error";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.key(), "terrain");
+    EXPECT_NE(std::string(e.what()).find("ensembles run 2D scenes only"), std::string::npos) << e.what();
+  }
 }
 
 // Release volumes: a cylinder of radius 8 h between two flat surfaces, 8 points per cell, seeds
