@@ -64,10 +64,10 @@ struct Wall {
 // components held (no-slip on an inclined plane: the flume). 2D only.
 struct BaseLine {
   std::vector<double> x, y;
-  std::string file;  // the profile file x and y came from (base.file), empty: inline
   // Coulomb friction coefficient (>= 0): the contact condition with the normal of the
   // segment above the node instead of the no-slip hold.
   std::optional<double> mu;
+  std::string file;  // the profile file x and y came from (base.file), empty: inline
 };
 
 // A gate: nodes with (x - point) . normal >= 0 are held while the stage lasts.
