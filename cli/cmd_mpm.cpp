@@ -17,6 +17,7 @@
 #include <sstream>
 #include <string>
 
+#include <granflow/io/raster.hpp>
 #include <granflow/mpm/checkpoint.hpp>
 #include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/memory.hpp>
@@ -46,10 +47,15 @@ namespace {
 // values (as granflow writes them, so comments and layout do not count; --params picks the
 // set) and the --set overrides as given.
 std::uint64_t scene_hash(const mpm::Scene& sc) {
-  std::ifstream in(sc.file, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  const std::uint64_t h = mpm::fnv1a(text.str());
+  auto bytes = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    return text.str();
+  };
+  std::uint64_t h = mpm::fnv1a(bytes(sc.file));  // and the files it names: terrain raster, base profile
+  if (sc.terrain && sc.terrain->raster) h = mpm::fnv1a(bytes(sc.terrain->raster->file), h);
+  if (sc.base && !sc.base->file.empty()) h = mpm::fnv1a(bytes(sc.base->file), h);
   std::uint64_t hash = mpm::fnv1a(io::format_parameter_set(io::load_parameter_set(sc.material.name)), h);
   for (const auto& a : sc.overrides) hash = mpm::fnv1a("--set " + a, hash);
   return hash;
@@ -228,6 +234,18 @@ void run_mpm(const MpmOptions& o) {
                sc.adaptive ? "adaptive dt" : ("dt = " + std::to_string(sc.dt) + " s").c_str(),
                sc.shape == mpm::ShapeKind::Linear ? "linear" : "quadratic B-spline", runner->device().c_str());
   std::fprintf(stderr, "  precision %s; %s\n", mpm::precision_name(sc.precision), mpm::memory_line(su).c_str());
+  if (sc.terrain) {
+    if (sc.terrain->mu)
+      std::fprintf(stderr, "  terrain %s: Coulomb mu = %g on %zu nodes near the ground, deeper nodes held\n",
+                   sc.terrain->raster->file.c_str(), *sc.terrain->mu, su.terrain.size());
+    else
+      std::fprintf(stderr, "  terrain %s: no-slip\n", sc.terrain->raster->file.c_str());
+  }
+  for (size_t b = 0; b < sc.bodies.size() && b < su.seeded_volume.size(); ++b)
+    if (sc.bodies[b].is_release())  // seeded on the lattice against the surfaces' volume
+      std::fprintf(stderr, "  body[%zu]: seeded volume %.6g m^3, between the surfaces %.6g m^3 (%+.2f %%)\n", b,
+                   su.seeded_volume[b], su.geometric_volume[b],
+                   su.geometric_volume[b] > 0 ? 100 * (su.seeded_volume[b] / su.geometric_volume[b] - 1) : 0.0);
   if (resume)
     std::fprintf(stderr, "  restarting at t = %.6g s (step %ld) from %s/%s\n", resume->loop.t, resume->loop.step,
                  out.c_str(), mpm::kCheckpointFile);

@@ -22,7 +22,7 @@ if [ "$tests" -eq 1 ]; then
   # optional MPI: ensembles and calibration over ranks (docs/mpm_ensembles.md); libsundials-dev
   # already pulls in libopenmpi-dev and gfortran, they are named for what the tests use
   packages+=(libopenmpi-dev openmpi-bin)
-  packages+=(libgdal-dev)  # optional; not used by CMake yet (kept for the terrain work to come)
+  packages+=(libgdal-dev)  # optional: GeoTIFF and other terrain rasters through GDAL (docs/mpm_terrain.md)
 fi
 missing=()
 for p in "${packages[@]}"; do

@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install_deps.sh --tests
-scripts/build.sh -DGRANFLOW_TESTS=ON -DGRANFLOW_CUDA=ON -DGRANFLOW_PYTHON=ON -DGRANFLOW_MPI=ON
+scripts/build.sh -DGRANFLOW_TESTS=ON -DGRANFLOW_CUDA=ON -DGRANFLOW_PYTHON=ON -DGRANFLOW_MPI=ON -DGRANFLOW_GDAL=ON
 # ctest -j runs OpenMP tests side by side on few cores: threads spinning at barriers would wait on
 # each other's time slices (docs/reliability_ci.md)
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}

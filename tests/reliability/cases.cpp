@@ -81,6 +81,42 @@ const std::string kScene =
     "[output]\n"                            // 20
     "series_dt = 0.001\n";                  // 21
 
+// A 3D scene on a terrain raster (dem.asc: 6 x 6 cells of 25 mm, ground at y = 0.02 m).
+const std::string kTerrainScene =
+    "name = \"reliability terrain\"\n"          // 1
+    "[grid]\n"                                  // 2
+    "dim = 3\n"                                 // 3
+    "origin = [0.0, 0.0, 0.0]\n"                // 4
+    "size = [0.1, 0.1, 0.1]\n"                  // 5
+    "h = 0.02\n"                                // 6
+    "[particles]\n"                             // 7
+    "per_cell = 8\n"                            // 8
+    "[time]\n"                                  // 9
+    "dt = 1e-4\n"                               // 10
+    "[material]\n"                              // 11
+    "parameters = \"column_collapse\"\n"        // 12
+    "model = \"frictional\"\n"                  // 13
+    "[terrain]\n"                               // 14
+    "file = \"dem.asc\"\n"                      // 15
+    "origin = [500000.0, 4000000.0, 100.0]\n"   // 16
+    "mu = 0.3\n"                                // 17
+    "[[body]]\n"                                // 18
+    "min = [0.02, 0.04, 0.02]\n"                // 19
+    "max = [0.06, 0.08, 0.06]\n"                // 20
+    "[[stage]]\n"                               // 21
+    "duration = 0.002\n"                        // 22
+    "[output]\n"                                // 23
+    "series_dt = 0.001\n";                      // 24
+
+// The terrain raster: cell centres at scene x, z = -0.0125 to 0.1125 (row 0 the northern, z =
+// 0.1125), NODATA at (row, col) where asked; the header is 6 lines, row r is line 7 + r.
+std::string dem(int nodata_row = -1, int nodata_col = -1) {
+  std::string s = "ncols 6\nnrows 6\nxllcorner 499999.975\nyllcorner 3999999.975\ncellsize 0.025\nNODATA_value -9999\n";
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) s += (r == nodata_row && c == nodata_col ? "-9999" : "100.02") + std::string(c == 5 ? "\n" : " ");
+  return s;
+}
+
 const std::string kJob =
     "params = \"collisional_element\"\n"    // 1
     "[[free]]\n"                            // 2
@@ -126,6 +162,7 @@ const std::vector<std::string> kLabArgs = {"@csv", "lab.csv", "strain,q", "strai
 std::string S(const std::string& from, const std::string& to) { return edit(kScene, from, to); }
 std::string J(const std::string& from, const std::string& to) { return edit(kJob, from, to); }
 const std::vector<std::string> kMpm = {"mpm", "scene.toml", "--out", "o", "--no-png", "--quiet"};
+const std::vector<std::string> kT3 = {"mpm", "t3.toml", "--out", "o", "--no-png", "--quiet"};
 const std::vector<std::string> kRestart = {"mpm", "scene.toml", "--out", "o", "--no-png", "--quiet", "--restart"};
 const std::vector<std::string> kCal = {"calibrate", "job.toml", "--out", "fit", "--no-plot", "--quiet"};
 std::vector<std::string> mpm_with(std::vector<std::string> extra) {
@@ -165,7 +202,8 @@ std::vector<std::string> ens_with(std::vector<std::string> extra) {
 
 Files default_files() {
   return {{"p.toml", kParams}, {"t.toml", kTest},     {"table.toml", kTableTest}, {"rates.csv", kRates},
-          {"lab.csv", kLab},   {"scene.toml", kScene}, {"job.toml", kJob},         {"dem.csv", kDem}};
+          {"lab.csv", kLab},   {"scene.toml", kScene}, {"job.toml", kJob},         {"dem.csv", kDem},
+          {"t3.toml", kTerrainScene}, {"dem.asc", dem()}};
 }
 
 std::vector<Case> all_cases() {
@@ -335,6 +373,17 @@ std::vector<Case> all_cases() {
       {"mpm_restart_truncated_checkpoint", {{"o/checkpoint.bin", foreign_checkpoint().substr(0, 100)}}, kRestart, kInput, {"o/checkpoint.bin", "truncated checkpoint: 100 bytes"}},
       {"mpm_restart_corrupt_checkpoint", {{"o/checkpoint.bin", flip_byte(foreign_checkpoint(), 60)}}, kRestart, kInput, {"o/checkpoint.bin", "checksum mismatch"}},
       {"mpm_restart_not_a_checkpoint", {{"o/checkpoint.bin", "t,runout\n0,0.2\n"}}, kRestart, kInput, {"o/checkpoint.bin", "not a granflow MPM checkpoint"}},
+      // ---- terrain rasters and base profiles (granflow mpm; docs/mpm_terrain.md) ------------------
+      {"terrain_nodata_under_material", {{"t3.toml", kTerrainScene}, {"dem.asc", dem(3, 2)}}, kT3, kInput, {"t3.toml:15", "'terrain.file'", "a NODATA cell under material", "dem.asc"}},
+      {"terrain_nodata_in_footprint", {{"t3.toml", kTerrainScene}, {"dem.asc", dem(0, 5)}}, kT3, kInput, {"t3.toml:15", "'terrain.file'", "a NODATA cell inside the grid's footprint: row 0, column 5 of dem.asc"}},
+      {"terrain_raster_misses_footprint", {{"t3.toml", edit(kTerrainScene, "[500000.0,", "[500000.05,")}, {"dem.asc", dem()}}, kT3, kInput, {"t3.toml:15", "'terrain.file'", "dem.asc covers easting [499999.975, 500000.125]", "not easting [500000.05, 500000.15]", "the grid's footprint"}},
+      {"terrain_malformed_asc", {{"t3.toml", kTerrainScene}, {"dem.asc", edit(dem(), "100.02 100.02\n", "100.02 1OO.02\n")}}, kT3, kInput, {"t3.toml:15", "'terrain.file'", "dem.asc:7: '1OO.02' is not a number"}},
+      {"terrain_asc_value_count", {{"t3.toml", kTerrainScene}, {"dem.asc", edit(dem(), "ncols 6", "ncols 7")}}, kT3, kInput, {"'terrain.file'", "dem.asc:12: 36 values, but ncols x nrows = 7 x 6 = 42"}},
+      {"terrain_geographic", {{"t3.toml", kTerrainScene}, {"dem.asc", dem()}, {"dem.prj", "GEOGCS[\"WGS 84\",DATUM[\"WGS_1984\"],UNIT[\"degree\",0.0174532925199433]]"}}, kT3, kInput, {"t3.toml:15", "'terrain.file'", "geographic coordinate system (degrees", "gdalwarp"}},
+      {"terrain_material_below_ground", {{"t3.toml", edit(kTerrainScene, "min = [0.02, 0.04, 0.02]", "min = [0.02, 0.0, 0.02]")}, {"dem.asc", dem()}}, kT3, kInput, {"t3.toml:14", "'terrain'", "lies on or below the terrain (ground at y = 0.02"}},
+      {"terrain_in_2d_scene", {{"scene.toml", kScene + "[terrain]\nfile = \"dem.asc\"\norigin = [0.0, 0.0, 0.0]\n"}, {"dem.asc", dem()}}, kMpm, kInput, {"scene.toml:23", "'terrain.file'", "terrain needs grid.dim = 3", "[base]"}},
+      {"base_profile_not_increasing", {{"scene.toml", kScene + "[base]\nfile = \"p.csv\"\n"}, {"p.csv", "x,y\n0,0\n0.1,0\n0.05,0\n"}}, kMpm, kInput, {"scene.toml:23", "'base.file'", "p.csv", "must increase strictly"}},
+      {"release_top_missing", {{"t3.toml", edit(kTerrainScene, "min = [0.02, 0.04, 0.02]\nmax = [0.06, 0.08, 0.06]", "top = \"top.asc\"")}, {"dem.asc", dem()}}, kT3, kInput, {"t3.toml:19", "'body[0].top'", "top.asc: no such raster file"}},
       // ---- --set and --params over the scene (granflow mpm, bench mpm) ------------------------------
       {"mpm_set_unknown_key", {}, mpm_with({"--set", "grid.hh=0.01"}), kInput, {"scene.toml: --set 'grid.hh=0.01': unknown key 'grid.hh'", "allowed here"}},
       {"mpm_set_wrong_type", {}, mpm_with({"--set", "time.dt=fast"}), kInput, {"scene.toml: --set 'time.dt=fast': 'time.dt': expected a number, got a string"}},

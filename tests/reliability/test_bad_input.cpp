@@ -150,6 +150,10 @@ TEST(BadInputControl, DefaultSceneAndJobRun) {
   o = run_case(dir, {"mpm", "scene.toml", "--out", "o", "--no-png", "--quiet", "--checkpoint-every", "5e-4",
                      "--force"});
   EXPECT_EQ(o.exit_code, 0) << o.err;
+  // the 3D scene on a terrain raster the terrain_* cases start from
+  o = run_case(dir, {"mpm", "t3.toml", "--out", "t3", "--no-png", "--quiet"});
+  EXPECT_EQ(o.exit_code, 0) << o.err;
+  EXPECT_TRUE(fs::exists(dir / "t3" / "runout.csv"));
   o = run_case(dir, {"calibrate", "job.toml", "--out", "fit", "--no-plot", "--quiet", "--evaluate"});
   EXPECT_EQ(o.exit_code, 0) << o.err;
   EXPECT_TRUE(fs::exists(dir / "fit"));

@@ -13,6 +13,8 @@
 // member against the GPU single run of its scene, with the same tolerances; a member thrown out
 // of the grid must fail alone, at the step of the CPU twin (give or take 2), and leave the
 // others as their single runs. --ensembles runs these cases only; --short shortens the collapse.
+// Terrain (3D builds, GRANFLOW_MPM_CUDA_3D): a slab sliding with Coulomb friction down a planar
+// raster dipping 30 deg towards 30 deg off x (the terrain pass, terrain_kernel), same tolerances.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -21,6 +23,10 @@
 #include <string>
 #include <vector>
 
+#include <memory>
+#include <stdexcept>
+
+#include <granflow/io/raster.hpp>
 #include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/ensemble.hpp>
 #include <granflow/mpm/kernels.hpp>
@@ -278,6 +284,95 @@ bool ensemble_case(const EnsembleCase& c, bool short_run, double tol) {
   return ok;
 }
 
+// A raster in memory: elevation z(easting, northing) at the cell centres.
+std::shared_ptr<const granflow::io::Raster> plane_raster(double west, double cell, long n, double dip, double azimuth,
+                                                         double thick) {
+  auto r = std::make_shared<granflow::io::Raster>();
+  r->file = "memory";
+  r->ncols = r->nrows = n;
+  r->west = r->south = west;
+  r->cellsize = cell;
+  for (long row = 0; row < n; ++row)
+    for (long col = 0; col < n; ++col)
+      r->values.push_back(thick - std::tan(dip) * (r->centre_east(col) * std::cos(azimuth) +
+                                                   r->centre_north(row) * std::sin(azimuth)));
+  return r;
+}
+
+// The slab of Terrain.BlockOnATiltedRasterSlidesAtTheCoulombRate (tests/mpm): 4 cm thick between
+// the terrain and the surface above it, mu 0.2, 0.25 s (784 points, 20 mm grid).
+Scene terrain_slide_scene(double duration) {
+  Scene sc = small_column_scene(ModelKind::Frictional);
+  sc.name = "slab on a 30 deg raster, mu 0.2 (terrain pass)";
+  sc.material = flume_scene(0.04, 1e-4, ModelKind::Frictional, ShapeKind::Linear, 0.1).material;
+  sc.dim = 3;
+  sc.origin = {0.0, 0.0, 0.0};
+  sc.size = {0.5, 0.48, 0.5};
+  sc.h = 0.02;
+  sc.dt = 2e-4;
+  sc.gravity = {0.0, -9.81, 0.0};
+  sc.walls.clear();
+  sc.tracks.clear();
+  sc.runout_x.clear();
+  sc.runout_y.clear();
+  sc.output.times.clear();
+  Stage s;
+  s.name = "slide";
+  s.duration = duration;
+  sc.stages = {s};
+  const double deg = M_PI / 180;
+  Terrain t;
+  t.origin = {0.0, 0.0, -0.46};
+  t.mu = 0.2;
+  t.raster = plane_raster(-0.05, 0.05, 12, 30 * deg, 30 * deg, 0.0);
+  sc.terrain = t;
+  Body b;
+  b.top = plane_raster(-0.05, 0.05, 12, 30 * deg, 30 * deg, 0.04);
+  b.plan_x = {0.06, 0.2, 0.2, 0.06};
+  b.plan_z = {0.06, 0.06, 0.2, 0.2};
+  sc.bodies = {b};
+  return sc;
+}
+
+// The terrain slide on both back ends: run-out, height and every particle's final position.
+// Skipped (true) where the 3D CUDA kernels are not compiled.
+bool terrain_case(const char* cuda, bool short_run, double tol) {
+  const Scene sc = terrain_slide_scene(short_run ? 0.1 : 0.25);
+  const SceneSetup su = make_setup(sc);
+  std::unique_ptr<Runner> gpu;
+  try {
+    gpu = make_cuda_runner(su, cuda_options(cuda));
+  } catch (const std::runtime_error& e) {
+    if (!std::strstr(e.what(), "3D CUDA kernels are not compiled")) throw;
+    std::printf("%s: skipped (%s)\n", sc.name.c_str(), e.what());
+    return true;
+  }
+  RunOptions opt;
+  opt.progress = false;
+  auto cpu = make_cpu_runner(su);
+  const RunSummary a = run(su, *cpu, opt);
+  const RunSummary b = run(su, *gpu, opt);
+  HostParticles ha, hb;
+  cpu->download(ha);
+  gpu->download(hb);
+  long far = 0;
+  for (long i = 0; i < ha.n; ++i) {
+    double d2 = 0;
+    for (int d = 0; d < 3; ++d) d2 += std::pow(ha.x[d * ha.n + i] - hb.x[d * ha.n + i], 2);
+    if (std::sqrt(d2) > 0.25 * sc.h) ++far;
+  }
+  const double rel = std::fabs(b.final.runout - a.final.runout) / a.final.runout;
+  const double relh = std::fabs(b.final.height - a.final.height) / a.final.height;
+  const bool ok = a.ok && b.ok && rel <= tol && relh <= tol && far <= ha.n / 10;
+  std::printf("%-55s %s cpu run-out %.5f m height %.5f m (%.2f s) | gpu run-out %.5f m height %.5f m (%.2f s, %s) | "
+              "rel. diff %.2e / %.2e | %ld of %ld points > h/4 apart, %zu terrain nodes %s\n",
+              sc.name.c_str(), cuda, a.final.runout, a.final.height, a.wall_s, b.final.runout, b.final.height,
+              b.wall_s, b.device.c_str(), rel, relh, far, ha.n, su.terrain.size(), ok ? "OK" : "FAIL");
+  if (!a.ok) std::printf("  cpu: %s\n", a.message.c_str());
+  if (!b.ok) std::printf("  gpu: %s\n", b.message.c_str());
+  return ok;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -374,6 +469,8 @@ int main(int argc, char** argv) {
     if (!b.ok) std::printf("  gpu: %s\n", b.message.c_str());
     fails += ok ? 0 : 1;
   }
+  if (!ensembles_only)
+    for (const char* cuda : {"", "sort 1, p2g atomic, graphs off"}) fails += terrain_case(cuda, short_run, tol) ? 0 : 1;
   if (!ensembles_only) {
     // a falling block leaves the grid: the first bad particle and the step, in the original order
     Scene sc = small_column_scene(ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline);

@@ -50,6 +50,10 @@ class CpuRunner final : public Runner {
     status_.resize(n_);
     info_.resize(n_);
     for (size_t s = 0; s < masks_.size(); ++s) contacts_.push_back(stage_has_contacts(su, static_cast<int>(s)));
+    if constexpr (kBoundary && !kMembers) {
+      terrain_ = su.terrain;
+      terrain_mu_ = su.terrain_mu;
+    }
     set_stage(0, 0.0, su.scene.flip);
   }
 
@@ -87,6 +91,7 @@ class CpuRunner final : public Runner {
       grid_update<kBoundary>(gv);
     else
       grid_update<false>(gv);
+    if (!terrain_.empty()) terrain_pass(gv);
     times_.grid += seconds_since(t0);
     t0 = Clock::now();
     std::uint32_t any = 0;
@@ -248,6 +253,14 @@ class CpuRunner final : public Runner {
     }
   }
 
+  // Friction with the terrain on its listed nodes (boundary.hpp terrain_contact).
+  void terrain_pass(const GridView<S>& gv) {
+    const long nt = static_cast<long>(terrain_.size());
+    const TerrainNode* t = terrain_.data();
+#pragma omp parallel for schedule(static)
+    for (long i = 0; i < nt; ++i) terrain_contact<D, S>(gv, t[i], terrain_mu_);
+  }
+
   void p2g(const ParticleView<S>& pv, const GridView<S>& gv) {
     const long nn = nn_, nm = sp_.grid.n_nodes;
     // 1. bin by the lowest stencil node (stable counting sort: order by particle index); the
@@ -311,6 +324,8 @@ class CpuRunner final : public Runner {
 
   std::vector<std::vector<std::uint8_t>> masks_;
   std::vector<bool> contacts_;  // per stage: friction or a lifting gate (stage_has_contacts)
+  std::vector<TerrainNode> terrain_;  // frictional terrain (empty: no terrain pass)
+  double terrain_mu_ = 0;
   SP sp_;
   long n_;
   long nn_;  // grid nodes of all members

@@ -166,6 +166,9 @@ class CudaRunner final : public Runner {
   bool snap_pending_ = false;
   std::vector<std::uint8_t*> masks_;
   std::vector<bool> contacts_;  // per stage: the grid kernel with contact_node (cuda_step.cuh)
+  TerrainNode* terrain_ = nullptr;  // frictional terrain's nodes (terrain_kernel; none: no launch)
+  long n_terrain_ = 0;
+  double terrain_mu_ = 0;
   std::vector<MV> values_;                 // ensembles: per-member values (host copy)
   MV* values_dev_ = nullptr;               // ... on the device (sp_.members.values)
   std::uint32_t* dead_ = nullptr;          // per member, non-zero: retired (sp_.members.dead)

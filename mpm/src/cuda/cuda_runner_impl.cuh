@@ -106,6 +106,15 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const Sce
     masks_.push_back(d);
     contacts_.push_back(stage_has_contacts(su, static_cast<int>(masks_.size()) - 1));
   }
+  if constexpr (kBoundary && !kMembers) {
+    if (!su.terrain.empty()) {
+      n_terrain_ = static_cast<long>(su.terrain.size());
+      terrain_mu_ = su.terrain_mu;
+      terrain_ = device_alloc<TerrainNode>(su.terrain.size());
+      check(cudaMemcpy(terrain_, su.terrain.data(), sizeof(TerrainNode) * su.terrain.size(), cudaMemcpyHostToDevice),
+            "upload terrain nodes");
+    }
+  }
   if constexpr (kMembers) {
     // per-member values, retired flags and first bad particles (sp_.members, SpanControl)
     const int nm = su.members;
@@ -138,7 +147,7 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::~CudaRunner() {
                   static_cast<void*>(sub_ids_), static_cast<void*>(sub_out_), static_cast<void*>(deferred_),
                   static_cast<void*>(n_deferred_), static_cast<void*>(values_dev_), static_cast<void*>(dead_),
                   static_cast<void*>(member_bad_), static_cast<void*>(snap_dev_), static_cast<void*>(snap_sub_ids_),
-                  static_cast<void*>(snap_sub_dev_)})
+                  static_cast<void*>(snap_sub_dev_), static_cast<void*>(terrain_)})
     cudaFree(p);
   if (copy_stream_) {
     cudaStreamDestroy(copy_stream_);

@@ -194,6 +194,15 @@ __global__ void grid_kernel(GridView<S> gv, StepParams<D, S, Model> sp0, const S
   for (int f = 0; f < 1 + 2 * D; ++f) gv.f(f, I) = S(0);
 }
 
+// Friction with the terrain on its listed nodes after the grid update (boundary.hpp
+// terrain_contact); launched only for scenes with frictional terrain.
+template <int D, class S>
+__global__ void terrain_kernel(GridView<S> gv, const TerrainNode* nodes, long n, double mu, const SpanControl* ctl) {
+  if (!ctl->active) return;
+  const long i = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  if (i < n) terrain_contact<D, S>(gv, nodes[i], mu);
+}
+
 // ---- G2P ---------------------------------------------------------------------------------
 // kMembers: each particle with its member's values and view of the grid; a retired member's
 // points are skipped (no update, no stable-step limit); a failure is recorded for the span and
@@ -411,6 +420,8 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::preload() const
                      reinterpret_cast<const void*>(g2p_elastic_kernel<D, S, Model, Shape, kElasticCap, kMembers>),
                      reinterpret_cast<const void*>(g2p_plastic_kernel<D, S, Model, 256, 1, kMembers>)};
   for (const void* f : k) check(cudaFuncGetAttributes(&a, f), "load kernels");
+  if constexpr (kBoundary && !kMembers)
+    if (n_terrain_ > 0) check(cudaFuncGetAttributes(&a, reinterpret_cast<const void*>(terrain_kernel<D, S>)), "load kernels");
 }
 
 // Queues one step (kernels only: capturable).
@@ -441,6 +452,10 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_step(bo
     grid_kernel<D, S, Model, kBoundary, kBoundary, kMembers><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
   else
     grid_kernel<D, S, Model, kBoundary, false, kMembers><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
+  if constexpr (kBoundary && !kMembers)
+    if (n_terrain_ > 0)
+      terrain_kernel<D, S><<<blocks_for(n_terrain_, kGridBlock), kGridBlock, 0, stream_>>>(gv, terrain_, n_terrain_,
+                                                                                         terrain_mu_, ctl_);
   if (timed) cudaEventRecord(ev_[kG2P0], stream_);
   if (split()) {
     const unsigned eb = blocks_for(n_, kSplitBlock);
@@ -498,6 +513,8 @@ inline std::string CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::config()
   else if constexpr (!kMembers)
     s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GTile, false>, kP2GBlock);
   s += kernel_info("grid update", grid_kernel<D, S, Model, kBoundary, false, kMembers>, kGridBlock);
+  if constexpr (kBoundary && !kMembers)
+    if (n_terrain_ > 0) s += kernel_info("terrain friction", terrain_kernel<D, S>, kGridBlock);
   if (split()) {
     if (opt_.g2p_reg_cap)
       s += kernel_info("G2P + elastic part", g2p_elastic_kernel<D, S, Model, Shape, kElasticCap, kMembers>,

@@ -34,6 +34,8 @@ SceneSetup make_ensemble_setup(const std::vector<SceneSetup>& members) {
   const Scene& s0 = m0.scene;
   const int nm = static_cast<int>(members.size());
   const long n = m0.particles.n;
+  if (s0.terrain)  // terrain is 3D; ensembles are compiled for 2D scenes
+    throw SceneError("terrain", "ensembles run 2D scenes only; a scene with terrain runs alone (granflow mpm)");
   for (int k = 1; k < nm; ++k) {
     const SceneSetup& m = members[k];
     const Scene& s = m.scene;

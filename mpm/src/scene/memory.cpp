@@ -30,6 +30,7 @@ MemoryEstimate estimate_memory(const SceneSetup& su) {
   // fields, two bin sums (volumetric averaging), one mask byte per node and stage
   m.grid_bytes = nodes * (gf * S + 2 * S);
   for (const auto& block : su.stage_masks) m.grid_bytes += double(block.size());
+  m.grid_bytes += double(su.terrain.size()) * sizeof(TerrainNode);  // frictional terrain's nodes
   const double host_fields = 3.0 * sc.dim + 1 + 6 + 6 + sc.dim * sc.dim + 3;  // x, v, m, sig, sigf, L, eps, e, s
   m.host_bytes = n * host_fields * sizeof(double);
   return m;

@@ -5,8 +5,10 @@
 #include <filesystem>
 #include <sstream>
 
+#include <granflow/io/csv_table.hpp>
 #include <granflow/io/input_error.hpp>
 #include <granflow/io/parameter_set.hpp>
+#include <granflow/io/raster.hpp>
 #include <granflow/io/toml_reader.hpp>
 
 namespace granflow::mpm {
@@ -27,6 +29,15 @@ std::vector<double> increasing(TomlTable& t, const std::string& key) {
   for (size_t i = 1; i < v.size(); ++i)
     if (!(v[i] > v[i - 1])) t.fail(key, "must increase strictly");
   return v;
+}
+
+// A file a scene names: relative paths from the scene file's folder (else as given, from the
+// working directory).
+std::string beside(const std::string& scene, const std::string& file) {
+  const std::filesystem::path p(file);
+  if (p.is_absolute()) return file;
+  const std::filesystem::path rel = std::filesystem::path(scene).parent_path() / p;
+  return std::filesystem::exists(rel) || !std::filesystem::exists(p) ? rel.string() : file;
 }
 
 // One part of a --set key: a table or key name, with an index into an array of tables.
@@ -247,9 +258,29 @@ Scene read_scene(const toml::table& doc, const std::string& path, const std::str
   sc.lines["body"] = bodies.front().line();
   for (auto& b : bodies) {
     sc.lines["body[" + std::to_string(sc.bodies.size()) + "]"] = b.line();
-    for (const char* k : {"min", "max", "polygon_x", "polygon_y"}) note(b, k);
+    for (const char* k : {"min", "max", "polygon_x", "polygon_y", "top", "bottom", "plan_x", "plan_z"}) note(b, k);
     mpm::Body body;
-    if (b.has("polygon_x") || b.has("polygon_y")) {
+    if (b.has("top") || b.has("bottom") || b.has("plan_x") || b.has("plan_z")) {  // a release volume
+      if (D != 3) b.fail(b.has("top") ? "top" : "bottom", "a body between surfaces needs grid.dim = 3");
+      for (const char* k : {"min", "max", "polygon_x", "polygon_y"})
+        if (b.has(k)) b.fail(k, "give either top (and bottom, plan_x, plan_z) or a box or polygon, not both");
+      if (!b.has("top")) b.fail_missing("top", "the raster of the ground before failure");
+      auto surface = [&](const std::string& k) {
+        try {
+          return std::make_shared<const io::Raster>(read_raster(beside(path, b.string(k))));
+        } catch (const InputError& e) {
+          b.fail(k, e.what());
+        }
+      };
+      body.top = surface("top");
+      if (b.has("bottom") && b.string("bottom") != "terrain") body.bottom = surface("bottom");  // else the terrain
+      if (b.has("plan_x") || b.has("plan_z")) {
+        body.plan_x = b.numbers("plan_x", Bounds::any(), false);
+        body.plan_z = b.numbers("plan_z", Bounds::any(), false);
+        if (body.plan_x.size() != body.plan_z.size() || body.plan_x.size() < 3)
+          b.fail("plan_z", "plan_x and plan_z need the same number (>= 3) of vertices");
+      }
+    } else if (b.has("polygon_x") || b.has("polygon_y")) {
       if (D != 2) b.fail("polygon_x", "polygons need grid.dim = 2");
       body.poly_x = b.numbers("polygon_x", Bounds::any(), false);
       body.poly_y = b.numbers("polygon_y", Bounds::any(), false);
@@ -299,15 +330,48 @@ Scene read_scene(const toml::table& doc, const std::string& path, const std::str
   }
 
   if (auto b = root.optional_table("base")) {
-    if (D != 2) b->fail("x", "an inclined base needs grid.dim = 2");
+    if (D != 2) b->fail(b->has("file") ? "file" : "x", "an inclined base needs grid.dim = 2 (3D scenes: [terrain])");
     sc.lines["base"] = b->line();
     mpm::BaseLine base;
-    base.x = increasing(*b, "x");
-    base.y = b->numbers("y", Bounds::any(), false);
-    if (base.y.size() != base.x.size()) b->fail("y", "needs as many points as base.x");
+    if (b->has("file")) {  // a profile: CSV columns x and y
+      if (b->has("x") || b->has("y")) b->fail("file", "give either file (a profile) or x and y, not both");
+      base.file = beside(path, b->string("file"));
+      try {
+        const CsvColumns t = read_csv_columns(base.file, {"x", "y"});
+        if (t.rows() < 2) throw InputError(where(base.file) + "a profile needs at least two points");
+        require_strictly_increasing(t, "x");
+        base.x = t.column("x");
+        base.y = t.column("y");
+      } catch (const InputError& e) {
+        b->fail("file", e.what());
+      }
+    } else {
+      base.x = increasing(*b, "x");
+      base.y = b->numbers("y", Bounds::any(), false);
+      if (base.y.size() != base.x.size()) b->fail("y", "needs as many points as base.x");
+    }
     if (b->has("mu")) base.mu = b->number("mu", Bounds::non_negative());  // absent: no-slip
     b->finish();
     sc.base = base;
+  }
+
+  if (auto t = root.optional_table("terrain")) {
+    if (D != 3)
+      t->fail("file", "terrain needs grid.dim = 3; a 2D scene takes its ground as [base] (x and y, or file = a "
+                      "profile CSV)");
+    sc.lines["terrain"] = t->line();
+    for (const char* k : {"file", "origin", "mu"}) note(*t, k);
+    mpm::Terrain terrain;
+    terrain.file = t->string("file");
+    terrain.origin = vec(*t, "origin", 3);
+    if (t->has("mu")) terrain.mu = t->number("mu", Bounds::non_negative());  // absent: no-slip
+    try {
+      terrain.raster = std::make_shared<const io::Raster>(read_raster(beside(path, terrain.file)));
+    } catch (const InputError& e) {
+      t->fail("file", e.what());
+    }
+    t->finish();
+    sc.terrain = terrain;
   }
 
   auto stages = root.array_of_tables("stage");

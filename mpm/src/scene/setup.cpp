@@ -6,10 +6,12 @@
 #include <limits>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <sstream>
 
 #include <unistd.h>
 
+#include <granflow/io/raster.hpp>
 #include <granflow/mpm/boundary.hpp>
 #include <granflow/mpm/runner.hpp>
 
@@ -56,11 +58,141 @@ std::string fmt(double v) {
   return os.str();
 }
 
+// Georeferenced coordinates (easting 512345.678) need more digits than fmt's six.
+std::string fmt_geo(double v) {
+  std::ostringstream os;
+  os.precision(12);
+  os << v;
+  return os.str();
+}
+
+// A raster surface in scene coordinates: x, z = easting, northing minus origin[0, 1] (the
+// terrain's), y = elevation minus origin[2].
+class Surface {
+ public:
+  Surface(const io::Raster& r, const std::vector<double>& origin) : r_(r), o_(origin) {}
+  double height(double x, double z) const { return r_.elevation(x + o_[0], z + o_[1]) - o_[2]; }
+  // Unit normal into the ground at (x, z) from the raster's slope; returns the slope's magnitude.
+  double normal(double x, double z, double n[3]) const {
+    double de = 0, dn = 0;
+    r_.slope(x + o_[0], z + o_[1], de, dn);
+    const double len = std::sqrt(1 + de * de + dn * dn);
+    n[0] = de / len;
+    n[1] = -1 / len;
+    n[2] = dn / len;
+    return std::sqrt(de * de + dn * dn);
+  }
+  // "row R, column C of FILE (centre at easting E, northing N)"
+  std::string cell(long row, long col) const {
+    std::ostringstream os;
+    os.precision(12);
+    os << "row " << row << ", column " << col << " of " << r_.file << " (centre at easting " << r_.centre_east(col)
+       << ", northing " << r_.centre_north(row) << ")";
+    return os.str();
+  }
+  std::string cell_at(double x, double z) const { return cell(r_.row_of(z + o_[1]), r_.col_of(x + o_[0])); }
+  // Empty when the raster covers x in [x0, x1], z in [z0, z1]; else what it covers and what is needed.
+  std::string uncovered(double x0, double x1, double z0, double z1) const {
+    const double e0 = x0 + o_[0], e1 = x1 + o_[0], n0 = z0 + o_[1], n1 = z1 + o_[1];
+    const double slack = 1e-9 * r_.cellsize;
+    if (e0 >= r_.west - slack && e1 <= r_.east() + slack && n0 >= r_.south - slack && n1 <= r_.north() + slack)
+      return "";
+    return r_.file + " covers easting [" + fmt_geo(r_.west) + ", " + fmt_geo(r_.east()) + "] and northing [" +
+           fmt_geo(r_.south) + ", " + fmt_geo(r_.north()) + "], not easting [" + fmt_geo(e0) + ", " + fmt_geo(e1) +
+           "], northing [" + fmt_geo(n0) + ", " + fmt_geo(n1) + "]";
+  }
+  // Empty when no cell the interpolation reads for that box is NODATA; else that cell.
+  std::string nodata_in(double x0, double x1, double z0, double z1) const {
+    long r0, r1, c0, c1;
+    r_.cells_read(x0 + o_[0], x1 + o_[0], z0 + o_[1], z1 + o_[1], r0, r1, c0, c1);
+    for (long row = r0; row <= r1; ++row)
+      for (long col = c0; col <= c1; ++col)
+        if (std::isnan(r_.at(row, col))) return cell(row, col);
+    return "";
+  }
+
+ private:
+  const io::Raster& r_;
+  const std::vector<double>& o_;
+};
+
 std::string gb(double bytes) {
   std::ostringstream os;
   os.precision(3);
   os << bytes / 1e9 << " GB";
   return os.str();
+}
+
+// Points of a release volume (Body::is_release) on the lattice of spacing l: x and z aligned
+// with the lower corner of the plan polygon's box (else of the grid's footprint), y with the
+// grid's bottom; a point is kept where bottom < y < top inside the plan. `geometric`: the
+// integral of max(0, top - bottom) over the plan, sampled at l / 4.
+void seed_release(const Scene& sc, const Body& body, const std::string& key, double l,
+                  std::vector<std::vector<double>>& pos, double& geometric, double& points_wanted) {
+  if (sc.dim != 3) fail(key + ".top", "a body between surfaces needs grid.dim = 3");
+  if (!sc.terrain || !sc.terrain->raster)
+    fail(key + ".top", "a body between surfaces needs [terrain] (its origin georeferences the surfaces)");
+  const std::vector<double>& origin = sc.terrain->origin;
+  const Surface top(*body.top, origin), bottom(body.bottom ? *body.bottom : *sc.terrain->raster, origin);
+  const std::string bottom_key = key + (body.bottom ? ".bottom" : ".top");
+  const bool plan = !body.plan_x.empty();
+  if (plan && (body.plan_x.size() != body.plan_z.size() || body.plan_x.size() < 3))
+    fail(key + ".plan_z", "plan_x and plan_z need the same number (>= 3) of vertices");
+  double x0 = sc.origin[0], x1 = x0 + sc.size[0], z0 = sc.origin[2], z1 = z0 + sc.size[2];
+  if (plan) {
+    const auto [ax, bx] = std::minmax_element(body.plan_x.begin(), body.plan_x.end());
+    const auto [az, bz] = std::minmax_element(body.plan_z.begin(), body.plan_z.end());
+    if (*ax < x0 - 1e-12 || *bx > x1 + 1e-12 || *az < z0 - 1e-12 || *bz > z1 + 1e-12)
+      fail(key + ".plan_x", "the plan polygon (x [" + fmt(*ax) + ", " + fmt(*bx) + "], z [" + fmt(*az) + ", " +
+                                fmt(*bz) + "]) leaves the grid's footprint (x [" + fmt(x0) + ", " + fmt(x1) +
+                                "], z [" + fmt(z0) + ", " + fmt(z1) + "])");
+    x0 = *ax, x1 = *bx, z0 = *az, z1 = *bz;
+  }
+  for (const auto& [s, k] : {std::pair<const Surface*, std::string>{&top, key + ".top"}, {&bottom, bottom_key}}) {
+    const std::string miss = s->uncovered(x0, x1, z0, z1);
+    if (!miss.empty()) fail(k, miss + ", the body's plan extent");
+  }
+  const double y0 = sc.origin[1], y_top = y0 + sc.size[1];
+  auto inside = [&](double x, double z) { return !plan || inside_polygon(body.plan_x, body.plan_z, x, z); };
+  // top and bottom where the plan needs them: NODATA there is an error
+  auto heights = [&](double x, double z, double& b, double& t) {
+    b = bottom.height(x, z);
+    t = top.height(x, z);
+    if (std::isnan(b)) fail(bottom_key, "a NODATA cell under the body: " + bottom.cell_at(x, z));
+    if (std::isnan(t)) fail(key + ".top", "a NODATA cell under the body: " + top.cell_at(x, z));
+  };
+  const long cx = static_cast<long>(std::floor((x1 - x0) / l + 1e-9)), cz = static_cast<long>(std::floor((z1 - z0) / l + 1e-9));
+  points_wanted += double(cx) * double(cz);  // a lower bound: one point per column
+  for (long k = 0; k < cz; ++k)
+    for (long i = 0; i < cx; ++i) {
+      const double x = x0 + (i + 0.5) * l, z = z0 + (k + 0.5) * l;
+      for (int a = 0; a < 4; ++a)  // the volume, sampled at l / 4 in plan
+        for (int c = 0; c < 4; ++c) {
+          const double xs = x0 + (i + (a + 0.5) / 4) * l, zs = z0 + (k + (c + 0.5) / 4) * l;
+          if (!inside(xs, zs)) continue;
+          double b, t;
+          heights(xs, zs, b, t);
+          geometric += std::max(0.0, t - b) * l * l / 16;
+        }
+      if (!inside(x, z)) continue;
+      double b, t;
+      heights(x, z, b, t);
+      if (!(t > b)) continue;
+      if (t > y_top + 1e-9 * l)
+        fail(key + ".top", "the body reaches y = " + fmt(t) + " at x = " + fmt(x) + ", z = " + fmt(z) +
+                               ", above the grid (up to y = " + fmt(y_top) + "): raise grid.size[1]");
+      if (b < y0 - 1e-9 * l)
+        fail(bottom_key, "the body reaches down to y = " + fmt(b) + " at x = " + fmt(x) + ", z = " + fmt(z) +
+                             ", below the grid (from y = " + fmt(y0) + "): lower grid.origin[1]");
+      for (long j = std::max(0L, static_cast<long>(std::floor((b - y0) / l - 0.5))); ; ++j) {
+        const double y = y0 + (j + 0.5) * l;
+        if (y >= t) break;
+        if (y <= b) continue;
+        pos[0].push_back(x);
+        pos[1].push_back(y);
+        pos[2].push_back(z);
+      }
+    }
 }
 
 }  // namespace
@@ -104,6 +236,21 @@ SceneSetup make_setup(const Scene& sc) {
     su.n_nodes *= su.nodes[d];
   }
 
+  // Terrain (3D): the raster covers the grid's footprint in plan (x, z).
+  std::optional<Surface> ground;
+  if (sc.terrain) {
+    const Terrain& t = *sc.terrain;
+    if (D != 3) fail("terrain", "needs grid.dim = 3 (a 2D scene takes its ground as base)");
+    if (!t.raster) fail("terrain.file", "no raster was read");
+    if (t.origin.size() != 3) fail("terrain.origin", "needs 3 components (easting, northing, elevation)");
+    if (t.mu && !(*t.mu >= 0)) fail("terrain.mu", "must be >= 0, got " + fmt(*t.mu));
+    ground.emplace(*t.raster, t.origin);
+    const std::string miss = ground->uncovered(sc.origin[0], sc.origin[0] + sc.size[0], sc.origin[2],
+                                               sc.origin[2] + sc.size[2]);
+    if (!miss.empty())
+      fail("terrain.file", miss + ", the grid's footprint (grid.origin and grid.size in x and z, plus terrain.origin)");
+  }
+
   // Particles on a lattice of spacing h / ppc_axis, aligned with each body's lower corner.
   const Material& mat = sc.material;
   const double rho0 = mat.params.c.rho_p / (1.0 + mat.e0);
@@ -113,6 +260,14 @@ SceneSetup make_setup(const Scene& sc) {
   for (size_t b = 0; b < sc.bodies.size(); ++b) {
     const Body& body = sc.bodies[b];
     const std::string key = "body[" + std::to_string(b) + "]";
+    if (body.is_release()) {
+      const long before = static_cast<long>(pos[0].size());
+      double geometric = 0;
+      seed_release(sc, body, key, l, pos, geometric, points_wanted);
+      su.seeded_volume.push_back(double(static_cast<long>(pos[0].size()) - before) * std::pow(l, D));
+      su.geometric_volume.push_back(geometric);
+      continue;
+    }
     std::vector<double> lo(D), hi(D);
     if (body.is_polygon()) {
       if (D != 2) fail(key + ".polygon_x", "polygons are 2D only");
@@ -145,6 +300,7 @@ SceneSetup make_setup(const Scene& sc) {
       fail("grid.h", "the scene needs about " + gb(need) + " of memory (" + std::to_string(su.n_nodes) + " nodes, " +
                          fmt(points_wanted) + " material points), more than this machine's " + gb(ram) +
                          ": use a larger grid.h or fewer particles.per_cell");
+    const long before = static_cast<long>(pos[0].size());
     for (long k = 0; k < total; ++k) {
       long kk = k;
       double x[3];
@@ -155,6 +311,17 @@ SceneSetup make_setup(const Scene& sc) {
       if (body.is_polygon() && !inside_polygon(body.poly_x, body.poly_y, x[0], x[1])) continue;
       for (int d = 0; d < D; ++d) pos[d].push_back(x[d]);
     }
+    su.seeded_volume.push_back(double(static_cast<long>(pos[0].size()) - before) * std::pow(l, D));
+    double geometric = 1;
+    if (body.is_polygon()) {
+      geometric = 0;  // shoelace
+      for (size_t i = 0, j = body.poly_x.size() - 1; i < body.poly_x.size(); j = i++)
+        geometric += (body.poly_x[j] - body.poly_x[i]) * (body.poly_y[j] + body.poly_y[i]);
+      geometric = std::fabs(geometric) / 2;
+    } else {
+      for (int d = 0; d < D; ++d) geometric *= hi[d] - lo[d];
+    }
+    su.geometric_volume.push_back(geometric);
   }
   const long n = static_cast<long>(pos[0].size());
   if (n == 0) fail("body", "no material point was seeded");
@@ -170,6 +337,23 @@ SceneSetup make_setup(const Scene& sc) {
     }
     if (sc.base && pos[1][i] <= polyline(sc.base->x, sc.base->y, pos[0][i]))
       fail("base", "material point at " + fmt(pos[0][i]) + ", " + fmt(pos[1][i]) + " lies below the base");
+  }
+  if (ground) {
+    for (long i = 0; i < n; ++i) {
+      const double x = pos[0][i], y = pos[1][i], z = pos[2][i], b = ground->height(x, z);
+      const std::string at = fmt(x) + ", " + fmt(y) + ", " + fmt(z);
+      if (std::isnan(b))
+        fail("terrain.file", "a NODATA cell under material: the material point at " + at + " lies over " +
+                                 ground->cell_at(x, z) + " or a neighbour it interpolates from");
+      if (y <= b)
+        fail("terrain", "material point at " + at + " lies on or below the terrain (ground at y = " + fmt(b) +
+                            "): move the body up or lower terrain.origin[2]");
+    }
+    const std::string cell =
+        ground->nodata_in(sc.origin[0], sc.origin[0] + sc.size[0], sc.origin[2], sc.origin[2] + sc.size[2]);
+    if (!cell.empty())
+      fail("terrain.file", "a NODATA cell inside the grid's footprint: " + cell +
+                               "; fill it (e.g. gdal_fillnodata.py) or move the grid off it");
   }
 
   HostParticles& hp = su.particles;
@@ -236,7 +420,7 @@ SceneSetup make_setup(const Scene& sc) {
     for (const Wall& o : sc.walls)
       if (w.axis == o.axis && !w.at_max && o.at_max && !(w.position < o.position))
         fail(o.key, "this wall and " + w.key + " leave no room between them");
-  su.has_boundary = !sc.walls.empty() || sc.base.has_value();
+  su.has_boundary = !sc.walls.empty() || sc.base.has_value() || sc.terrain.has_value();
   // Wall node rows for the boundary-modified quadratic B-splines: the last held node row of
   // each axis-aligned wall (the flume's inclined base and the gates keep truncated splines).
   su.walls.assign(D, AxisWalls{});
@@ -268,6 +452,55 @@ SceneSetup make_setup(const Scene& sc) {
   }
   if (sc.base && sc.base->mu && !(*sc.base->mu >= 0)) fail("base.mu", "must be >= 0, got " + fmt(*sc.base->mu));
   const double tol = 1e-9 * sc.h;
+  // Terrain: nodes on or below the ground (evaluated at the nearest point of the footprint) are
+  // held, the same in every stage. No-slip: all components, by the masks. Frictional: the nodes
+  // a point on or above the ground can reach (quadratic stencils reach 1.5 h per axis; on a
+  // slope |grad b| a node that far aside lies up to 1.5 h (1 + sqrt 2 |grad b|) below the
+  // ground) go through the terrain pass with the ground's normal there; deeper nodes are held
+  // whole by the masks.
+  std::vector<std::uint8_t> ground_mask;
+  if (ground) {
+    ground_mask.assign(su.n_nodes, 0);
+    const std::uint8_t all = static_cast<std::uint8_t>((1u << D) - 1);
+    const bool frictional = sc.terrain->mu.has_value();
+    const bool floored = std::any_of(sc.walls.begin(), sc.walls.end(), [](const Wall& w) { return w.axis == 1 && !w.at_max; });
+    const int* nd = su.nodes.data();
+    double low = std::numeric_limits<double>::max(), high = -low;  // the ground's range over the footprint
+    for (int kz = 0; kz < nd[2]; ++kz)
+      for (int kx = 0; kx < nd[0]; ++kx) {
+        const double x = su.origin[0] + kx * sc.h, z = su.origin[2] + kz * sc.h;
+        const double xc = std::clamp(x, sc.origin[0], sc.origin[0] + sc.size[0]);
+        const double zc = std::clamp(z, sc.origin[2], sc.origin[2] + sc.size[2]);
+        const double b = ground->height(xc, zc);
+        low = std::min(low, b);
+        high = std::max(high, b);
+        if (!floored && b < sc.origin[1] - tol)
+          fail("grid.origin", "the terrain at x = " + fmt(xc) + ", z = " + fmt(zc) + " (y = " + fmt(b) +
+                                  ") lies below the grid (y from " + fmt(sc.origin[1]) +
+                                  "): lower grid.origin[1] or raise terrain.origin[2]");
+        double nrm[3] = {0, -1, 0};
+        const double band = frictional ? 2 * sc.h * (1 + std::sqrt(2.0) * ground->normal(xc, zc, nrm)) : 0;
+        for (int ky = 0; ky < nd[1]; ++ky) {
+          const double y = su.origin[1] + ky * sc.h;
+          if (y > b + tol) break;
+          const long I = kx + static_cast<long>(nd[0]) * (ky + static_cast<long>(nd[1]) * kz);
+          if (frictional && b - y <= band)
+            su.terrain.push_back({I, {nrm[0], nrm[1], nrm[2]}});
+          else
+            ground_mask[I] = all;
+        }
+      }
+    std::sort(su.terrain.begin(), su.terrain.end(), [](const TerrainNode& a, const TerrainNode& b) { return a.node < b.node; });
+    // A level ground is an axis-aligned floor: boundary-modified quadratic B-splines there, as at
+    // a y- wall at its height (any other terrain keeps truncated splines; docs/mpm_terrain.md).
+    if (sc.shape == ShapeKind::QuadraticBSpline && sc.modified_boundary_splines && high - low <= tol) {
+      AxisWalls& a = su.walls[1];
+      const int row = static_cast<int>(std::floor((high - su.origin[1]) / sc.h + 1e-9));
+      a.lo = a.has_lo ? std::max(a.lo, row) : row;
+      a.has_lo = true;
+    }
+    su.terrain_mu = frictional ? *sc.terrain->mu : 0.0;
+  }
   double stage_start = 0;  // as the driver sums the stage durations
   for (size_t si = 0; si < sc.stages.size(); ++si) {
     const Stage& st = sc.stages[si];
@@ -325,6 +558,7 @@ SceneSetup make_setup(const Scene& sc) {
               m |= gate_bits;
           }
         }
+        if (!ground_mask.empty()) m |= ground_mask[k];
         if (contact && m != all) m |= kContactNode;
         mask[k] = m;
       }

@@ -1,5 +1,7 @@
 // Boundary conditions of the grid update besides the held components of the node masks:
 // Coulomb friction at walls and at the base polyline, and a gate lifted at a finite speed.
+// Frictional terrain (3D) is a pass of its own after the grid update, over a list of nodes
+// and normals made at set-up (TerrainNode): scenes without it run the grid update unchanged.
 //
 // A stage's boundary is one block of bytes (SceneSetup::stage_masks, uploaded as it is): one
 // mask byte per node (bit d: velocity component d held at zero; kContactNode: the node goes
@@ -155,6 +157,26 @@ GF_HDI void contact_node(const GridView<S>& gv, long I, const int* nodes, double
     for (int d = 0; d < D; ++d)
       if (c.gate_bits & (1 << d)) v[d] = S(0);
   for (int d = 0; d < D; ++d) gv.f(G::VNEW + d, I) = v[d];
+}
+
+// ---- frictional terrain (3D) ---------------------------------------------------------------
+
+// A node on or just below the terrain and the ground's normal into the ground at its plan
+// position (from the raster's slope); make_setup lists them once (SceneSetup::terrain).
+struct TerrainNode {
+  long node = 0;
+  double n[3] = {0, 0, 0};
+};
+
+// Coulomb friction with the ground on a listed node's velocity after the grid update (and after
+// the masks and contacts of walls and gates that also hold it).
+template <int D, class S>
+GF_HDI void terrain_contact(const GridView<S>& gv, const TerrainNode& t, double mu) {
+  using G = GridLayout<D>;
+  S v[D];
+  for (int d = 0; d < D; ++d) v[d] = gv.f(G::VNEW + d, t.node);
+  coulomb_contact<D, S>(v, t.n, mu);
+  for (int d = 0; d < D; ++d) gv.f(G::VNEW + d, t.node) = v[d];
 }
 
 }  // namespace granflow::mpm

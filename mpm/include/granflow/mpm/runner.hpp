@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "boundary.hpp"
 #include "scene.hpp"
 #include "span.hpp"
 
@@ -37,6 +38,15 @@ struct SceneSetup {
   // One node mask per stage, followed by its ContactTable where it has one (boundary.hpp).
   std::vector<std::vector<std::uint8_t>> stage_masks;
   bool has_boundary = false;
+  // Frictional terrain (3D, terrain.mu): the nodes within reach of material on or below the
+  // ground with its normals, for the step's terrain pass (runs only when non-empty); deeper
+  // nodes and no-slip terrain are held by the masks.
+  std::vector<TerrainNode> terrain;
+  double terrain_mu = 0;
+  // Per body: the volume its points stand for (count times spacing^dim) and the volume of its
+  // shape (release volumes: the integral of top - bottom over the plan, sampled at a quarter
+  // spacing).
+  std::vector<double> seeded_volume, geometric_volume;
   std::vector<long> tracked;    // particle index per scene.tracks entry
   double dt_estimate = 0;       // h / c_p of the at-rest material (first adaptive step: cfl times this)
   // Ensembles (make_ensemble_setup, ensemble.hpp): `members` copies of the grid above, each

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -11,6 +12,10 @@
 #include <granflow/constitutive.hpp>
 
 #include "shape.hpp"
+
+namespace granflow::io {
+struct Raster;  // granflow/io/raster.hpp (the scene file and make_setup read it; the kernels never)
+}
 
 namespace granflow::mpm {
 
@@ -62,9 +67,20 @@ struct BaseLine {
   // Coulomb friction coefficient (>= 0): the contact condition with the normal of the
   // segment above the node instead of the no-slip hold.
   std::optional<double> mu;
+  std::string file;  // the profile file x and y came from (base.file), empty: inline
 };
 
 // A gate: nodes with (x - point) . normal >= 0 are held while the stage lasts.
+// Rigid ground of a 3D scene from an elevation raster (docs/mpm_terrain.md): easting,
+// northing and elevation minus `origin` are the scene's x, z and y. Nodes on or below the
+// ground are held: no-slip, or (mu) Coulomb friction with the raster's own normal.
+struct Terrain {
+  std::string file;                            // as the scene gives it (messages)
+  std::vector<double> origin = {0.0, 0.0, 0.0};  // easting, northing, elevation [m]
+  std::optional<double> mu;                    // absent: no-slip
+  std::shared_ptr<const io::Raster> raster;
+};
+
 struct Gate {
   std::vector<double> point, normal;
   bool normal_only = true;  // hold only the normal component (axis-aligned normals only)
@@ -82,11 +98,18 @@ struct Stage {
   std::optional<double> flip;         // overrides the scene's FLIP fraction in this stage
 };
 
-// Material region: an axis-aligned box, or (2D) a polygon.
+// Material region: an axis-aligned box, (2D) a polygon, or (3D) a release volume between two
+// surfaces: from `bottom` (the failure surface; null: the terrain) up to `top` (the ground
+// before failure), within the plan polygon (plan_x, plan_z) where one is given, else wherever
+// top lies above bottom in the grid's footprint. Surfaces are rasters georeferenced like the
+// terrain (terrain.origin), which such a scene needs.
 struct Body {
   std::vector<double> box_min, box_max;
   std::vector<double> poly_x, poly_y;
+  std::shared_ptr<const io::Raster> top, bottom;
+  std::vector<double> plan_x, plan_z;
   bool is_polygon() const { return !poly_x.empty(); }
+  bool is_release() const { return top != nullptr; }
 };
 
 struct Material {
@@ -156,6 +179,7 @@ struct Scene {
   std::vector<Body> bodies;
   std::vector<Wall> walls;
   std::optional<BaseLine> base;
+  std::optional<Terrain> terrain;
   std::vector<Stage> stages;
 
   // Run-out is the curvilinear abscissa, along this polyline, of the front of the contiguous

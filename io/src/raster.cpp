@@ -1,0 +1,329 @@
+#include <granflow/io/raster.hpp>
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <mutex>
+#include <sstream>
+
+#include <granflow/io/input_error.hpp>
+
+#ifdef GRANFLOW_WITH_GDAL
+#include <cpl_error.h>
+#include <gdal.h>
+#include <ogr_srs_api.h>
+#endif
+
+namespace granflow::io {
+namespace {
+
+const double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string fmt(double v) {
+  std::ostringstream os;
+  os.precision(10);
+  os << v;
+  return os.str();
+}
+
+// Whitespace-separated words of a text with the line of each.
+class Words {
+ public:
+  explicit Words(const std::string& text) : s_(text) {}
+  bool next(std::string& word, long& line) {
+    while (at_ < s_.size() && std::isspace(static_cast<unsigned char>(s_[at_]))) {
+      if (s_[at_] == '\n') ++line_;
+      ++at_;
+    }
+    if (at_ >= s_.size()) return false;
+    const size_t start = at_;
+    while (at_ < s_.size() && !std::isspace(static_cast<unsigned char>(s_[at_]))) ++at_;
+    word.assign(s_, start, at_ - start);
+    line = line_;
+    return true;
+  }
+
+ private:
+  const std::string& s_;
+  size_t at_ = 0;
+  long line_ = 1;
+};
+
+bool parse_number(const std::string& w, double& v) {
+  const char* b = w.data();
+  const char* e = b + w.size();
+  if (b != e && *b == '+') ++b;  // from_chars takes no '+'
+  const auto r = std::from_chars(b, e, v);
+  return r.ec == std::errc() && r.ptr == e && std::isfinite(v);
+}
+
+// Bilinear position along one axis of n centres: index i0 and fraction f of centre coordinate u.
+void axis_weights(double u, long n, long& i0, double& f) {
+  if (n == 1) {
+    i0 = 0;
+    f = 0;
+    return;
+  }
+  u = std::clamp(u, 0.0, static_cast<double>(n - 1));
+  i0 = std::min(static_cast<long>(std::floor(u)), n - 2);
+  f = u - static_cast<double>(i0);
+}
+
+// Calls use(row, col, weight) for the (up to) four centres around (easting, northing).
+template <class F>
+void bilinear(const Raster& r, double easting, double northing, F&& use) {
+  long c0, r0;
+  double fc, fr;
+  axis_weights((easting - r.west) / r.cellsize - 0.5, r.ncols, c0, fc);
+  axis_weights((r.north() - northing) / r.cellsize - 0.5, r.nrows, r0, fr);
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b) {
+      const double w = (a ? fr : 1 - fr) * (b ? fc : 1 - fc);
+      if (w != 0) use(r0 + a, c0 + b, w);
+    }
+}
+
+// Central difference along one axis at a cell centre (one-sided at the edges and beside
+// NODATA): (value at +1 - value at -1) / distance. NaN when the cell itself is NODATA.
+double centre_difference(const Raster& r, long row, long col, int drow, int dcol) {
+  const double z = r.at(row, col);
+  if (std::isnan(z)) return kNaN;
+  auto value = [&](int s) {
+    const long rr = row + s * drow, cc = col + s * dcol;
+    if (rr < 0 || rr >= r.nrows || cc < 0 || cc >= r.ncols) return kNaN;
+    return r.at(rr, cc);
+  };
+  const double up = value(1), down = value(-1);
+  if (!std::isnan(up) && !std::isnan(down)) return (up - down) / (2 * r.cellsize);
+  if (!std::isnan(up)) return (up - z) / r.cellsize;
+  if (!std::isnan(down)) return (z - down) / r.cellsize;
+  return 0.0;  // a single cell along this axis: level
+}
+
+[[noreturn]] void refuse_geographic(const std::string& path, const std::string& source) {
+  throw InputError(where(path) + "the raster is in a geographic coordinate system (degrees" + source +
+                   "); granflow needs a projected one in metres (e.g. UTM): reproject it, e.g. gdalwarp -t_srs "
+                   "EPSG:326xx");
+}
+
+#ifdef GRANFLOW_WITH_GDAL
+std::string gdal_message(const std::string& fallback) {
+  const char* m = CPLGetLastErrorMsg();
+  return m && *m ? std::string(m) : fallback;
+}
+
+Raster read_gdal(const std::string& path) {
+  static std::once_flag registered;
+  std::call_once(registered, [] { GDALAllRegister(); });
+  struct QuietErrors {
+    QuietErrors() { CPLPushErrorHandler(CPLQuietErrorHandler); CPLErrorReset(); }
+    ~QuietErrors() { CPLPopErrorHandler(); }
+  } quiet;
+  GDALDatasetH ds = GDALOpen(path.c_str(), GA_ReadOnly);
+  if (!ds) throw InputError(where(path) + "not a raster GDAL can read (" + gdal_message("unknown format") + ")");
+  struct Close {
+    GDALDatasetH d;
+    ~Close() { GDALClose(d); }
+  } close{ds};
+  Raster r;
+  r.file = path;
+  r.ncols = GDALGetRasterXSize(ds);
+  r.nrows = GDALGetRasterYSize(ds);
+  if (GDALGetRasterCount(ds) < 1 || r.ncols < 1 || r.nrows < 1) throw InputError(where(path) + "the raster has no band");
+  double gt[6];
+  if (GDALGetGeoTransform(ds, gt) != CE_None)
+    throw InputError(where(path) + "the raster has no georeferencing (geotransform)");
+  if (gt[2] != 0 || gt[4] != 0) throw InputError(where(path) + "the raster is rotated; granflow needs north-up rasters");
+  if (!(gt[1] > 0) || std::fabs(gt[1] + gt[5]) > 1e-9 * gt[1])
+    throw InputError(where(path) + "cells of " + fmt(gt[1]) + " x " + fmt(-gt[5]) +
+                     ": granflow needs square cells in north-up rows (gdalwarp -tr)");
+  r.cellsize = gt[1];
+  r.west = gt[0];
+  r.south = gt[3] - static_cast<double>(r.nrows) * r.cellsize;
+  if (const char* wkt = GDALGetProjectionRef(ds); wkt && *wkt) {
+    r.crs = wkt;
+    OGRSpatialReferenceH srs = OSRNewSpatialReference(wkt);
+    if (srs) {
+      const bool geographic = OSRIsGeographic(srs) != 0;
+      const bool projected = OSRIsProjected(srs) != 0;
+      const double metres = projected ? OSRGetLinearUnits(srs, nullptr) : 1.0;
+      OSRDestroySpatialReference(srs);
+      if (geographic) refuse_geographic(path, "");
+      if (std::fabs(metres - 1.0) > 1e-12)
+        throw InputError(where(path) + "the coordinate system's unit is " + fmt(metres) +
+                         " m; granflow needs metres (reproject the raster)");
+    }
+  }
+  GDALRasterBandH band = GDALGetRasterBand(ds, 1);
+  int has_nodata = 0;
+  const double nodata = GDALGetRasterNoDataValue(band, &has_nodata);
+  const double scale = GDALGetRasterScale(band, nullptr), offset = GDALGetRasterOffset(band, nullptr);
+  r.values.resize(static_cast<size_t>(r.ncols * r.nrows));
+  if (GDALRasterIO(band, GF_Read, 0, 0, static_cast<int>(r.ncols), static_cast<int>(r.nrows), r.values.data(),
+                   static_cast<int>(r.ncols), static_cast<int>(r.nrows), GDT_Float64, 0, 0) != CE_None)
+    throw InputError(where(path) + "reading band 1 failed (" + gdal_message("GDALRasterIO") + ")");
+  for (double& v : r.values) {
+    if (has_nodata && (v == nodata || (std::isnan(nodata) && std::isnan(v)))) {
+      v = kNaN;
+      continue;
+    }
+    if (!std::isfinite(v)) throw InputError(where(path) + "a non-finite elevation that is not the NODATA value");
+    v = v * scale + offset;
+  }
+  return r;
+}
+#endif
+
+}  // namespace
+
+long Raster::col_of(double easting) const {
+  return std::clamp(static_cast<long>(std::floor((easting - west) / cellsize)), 0L, ncols - 1);
+}
+long Raster::row_of(double northing) const {
+  return std::clamp(static_cast<long>(std::floor((north() - northing) / cellsize)), 0L, nrows - 1);
+}
+
+double Raster::elevation(double easting, double northing) const {
+  double z = 0;
+  bilinear(*this, easting, northing, [&](long row, long col, double w) { z += w * at(row, col); });
+  return z;  // NaN propagates
+}
+
+bool Raster::slope(double easting, double northing, double& d_east, double& d_north) const {
+  d_east = d_north = 0;
+  bilinear(*this, easting, northing, [&](long row, long col, double w) {
+    d_east += w * centre_difference(*this, row, col, 0, 1);
+    d_north += w * centre_difference(*this, row, col, -1, 0);  // row - 1 lies north
+  });
+  return !std::isnan(d_east) && !std::isnan(d_north);
+}
+
+void Raster::cells_read(double e0, double e1, double n0, double n1, long& row0, long& row1, long& col0,
+                        long& col1) const {
+  // positions in units of cells from the first centre: the centres around u are floor(u), ceil(u)
+  auto clamp_to = [](double u, long n) { return std::clamp(static_cast<long>(u), 0L, n - 1); };
+  col0 = clamp_to(std::floor((e0 - west) / cellsize - 0.5), ncols);
+  col1 = clamp_to(std::ceil((e1 - west) / cellsize - 0.5), ncols);
+  row0 = clamp_to(std::floor((north() - n1) / cellsize - 0.5), nrows);
+  row1 = clamp_to(std::ceil((north() - n0) / cellsize - 0.5), nrows);
+}
+
+bool wkt_is_geographic(const std::string& wkt) {
+  const auto a = wkt.find_first_not_of(" \t\r\n");
+  if (a == std::string::npos) return false;
+  const std::string head = lower(wkt.substr(a, 8));
+  return head.rfind("geogcs", 0) == 0 || head.rfind("geogcrs", 0) == 0 || head.rfind("geodcrs", 0) == 0;
+}
+
+Raster read_esri_ascii(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(where(path) + (std::filesystem::exists(path) ? "cannot be read" : "no such raster file"));
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  const std::string text = ss.str();
+  Words words(text);
+  Raster r;
+  r.file = path;
+  double nodata = kNaN;
+  bool has[6] = {};  // ncols nrows x y cellsize nodata
+  bool x_centre = false, y_centre = false;
+  double x = 0, y = 0;
+  std::string w, value;
+  long line = 0;
+  // header: "key value" pairs up to the first word that is a number
+  for (;;) {
+    if (!words.next(w, line)) throw InputError(where(path) + "no values after the header");
+    double probe;
+    if (parse_number(w, probe)) break;
+    const std::string key = lower(w);
+    long vline = 0;
+    if (!words.next(value, vline) || vline != line)
+      throw InputError(where(path, line) + "header key '" + w + "' has no value on its line");
+    double v;
+    if (!parse_number(value, v)) throw InputError(where(path, line) + "header '" + w + "': '" + value + "' is not a number");
+    auto once = [&](int k) {
+      if (has[k]) throw InputError(where(path, line) + "header '" + w + "' given twice");
+      has[k] = true;
+    };
+    auto count = [&]() {
+      if (v < 1 || v != std::floor(v) || v > 1e8) throw InputError(where(path, line) + "'" + w + "' must be a whole number >= 1, got " + value);
+      return static_cast<long>(v);
+    };
+    if (key == "ncols") { once(0); r.ncols = count(); }
+    else if (key == "nrows") { once(1); r.nrows = count(); }
+    else if (key == "xllcorner" || key == "xllcenter" || key == "xllcentre") { once(2); x = v; x_centre = key != "xllcorner"; }
+    else if (key == "yllcorner" || key == "yllcenter" || key == "yllcentre") { once(3); y = v; y_centre = key != "yllcorner"; }
+    else if (key == "cellsize") {
+      once(4);
+      if (!(v > 0)) throw InputError(where(path, line) + "'cellsize' must be positive, got " + value);
+      r.cellsize = v;
+    } else if (key == "nodata_value") { once(5); nodata = v; }
+    else
+      throw InputError(where(path, line) + "unknown header key '" + w +
+                       "' (an ESRI ASCII grid has ncols, nrows, xllcorner or xllcenter, yllcorner or yllcenter, "
+                       "cellsize and NODATA_value; dx/dy cells are not supported)");
+  }
+  const char* names[5] = {"ncols", "nrows", "xllcorner (or xllcenter)", "yllcorner (or yllcenter)", "cellsize"};
+  for (int k = 0; k < 5; ++k)
+    if (!has[k]) throw InputError(where(path, line) + "the header has no '" + names[k] + "'");
+  r.west = x_centre ? x - 0.5 * r.cellsize : x;
+  r.south = y_centre ? y - 0.5 * r.cellsize : y;
+  const size_t n = static_cast<size_t>(r.ncols * r.nrows);
+  r.values.reserve(n);
+  const double tol = 1e-6 * std::fabs(nodata);  // NODATA written in float precision (-3.4e38)
+  for (bool first = true;; first = false) {
+    if (!first && !words.next(w, line)) break;
+    double v;
+    if (!parse_number(w, v))
+      throw InputError(where(path, line) + "'" + w + "' is not a number (value " + std::to_string(r.values.size() + 1) +
+                       " of " + std::to_string(n) + ")");
+    if (r.values.size() == n)
+      throw InputError(where(path, line) + "more values than ncols x nrows = " + std::to_string(r.ncols) + " x " +
+                       std::to_string(r.nrows));
+    r.values.push_back(has[5] && std::fabs(v - nodata) <= tol ? kNaN : v);
+  }
+  if (r.values.size() != n)
+    throw InputError(where(path, line) + std::to_string(r.values.size()) + " values, but ncols x nrows = " +
+                     std::to_string(r.ncols) + " x " + std::to_string(r.nrows) + " = " + std::to_string(n));
+  std::filesystem::path prj(path);
+  prj.replace_extension(".prj");
+  if (std::filesystem::exists(prj)) {
+    std::ifstream p(prj, std::ios::binary);
+    std::ostringstream wkt;
+    wkt << p.rdbuf();
+    r.crs = wkt.str();
+    if (wkt_is_geographic(r.crs)) refuse_geographic(path, ", " + prj.string());
+  }
+  return r;
+}
+
+bool raster_gdal_available() {
+#ifdef GRANFLOW_WITH_GDAL
+  return true;
+#else
+  return false;
+#endif
+}
+
+Raster read_raster(const std::string& path) {
+  if (lower(std::filesystem::path(path).extension().string()) == ".asc") return read_esri_ascii(path);
+  if (!std::filesystem::exists(path)) throw InputError(where(path) + "no such raster file");
+#ifdef GRANFLOW_WITH_GDAL
+  return read_gdal(path);
+#else
+  throw InputError(where(path) + "this build reads only ESRI ASCII grids (.asc): GDAL was not found when it was "
+                                 "built (install libgdal-dev and rebuild), or convert the raster with "
+                                 "gdal_translate -of AAIGrid");
+#endif
+}
+
+}  // namespace granflow::io
