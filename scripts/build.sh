@@ -9,5 +9,6 @@ if [ "${1:-}" = "--target" ]; then
   target=(--target "$2")
   shift 2
 fi
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+source scripts/generator.sh
+cmake -S . -B build $(cmake_generator build) -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
 cmake --build build -j"$jobs" "${target[@]}"

@@ -22,7 +22,8 @@ for t in "${targets[@]}"; do
   build+=("fuzz_$t")
   [ "$t" = csv ] && build+=(fuzz_csv_fast)
 done
-cmake -S . -B build-fuzz -DCMAKE_CXX_COMPILER="${FUZZ_CXX:-clang++}" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+source scripts/generator.sh
+cmake -S . -B build-fuzz $(cmake_generator build-fuzz) -DCMAKE_CXX_COMPILER="${FUZZ_CXX:-clang++}" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
       -DGRANFLOW_FUZZ=ON -DGRANFLOW_CUDA=OFF >/dev/null
 cmake --build build-fuzz -j"$jobs" --target "${build[@]}"
 bin=build-fuzz/tests/fuzz

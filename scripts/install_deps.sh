@@ -12,7 +12,7 @@ case "${1:-}" in
 esac
 # The program: compilers, CMake, the libraries it links, and python3 + matplotlib for the PNGs
 # that figures, calibrate and mpm write beside their CSVs.
-packages=(build-essential cmake libeigen3-dev libsundials-dev libnlopt-cxx-dev libfccp-dev
+packages=(build-essential cmake ninja-build libeigen3-dev libsundials-dev libnlopt-cxx-dev libfccp-dev
           libcli11-dev libtomlplusplus-dev python3 python3-matplotlib)
 if [ "$tests" -eq 1 ]; then
   packages+=(libgtest-dev

@@ -15,10 +15,10 @@ rm -rf "$W" && mkdir -p "$W" && cd "$W" || exit 1
 
 # The CI column on a 20 mm grid, 0.06 s consolidation, DUR s of collapse (fixed step 2e-4 s).
 sets() {
-  echo "\"grid.h=0.02\", \"grid.size=[0.6, 0.16]\", \"time.dt=2e-4\", \"stage[0].duration=0.06\", \"stage[1].duration=$1\", \"output.times=[0.05, 0.1]\", \"output.series_dt=0.01\""
+  echo "\"grid.h=0.02\", \"grid.size=[0.6, 0.16]\", \"time.dt=2e-4\", \"stage[0].duration=0.06\", \"stage[1].duration=$1\", \"output.times=[0.02, $1]\", \"output.series_dt=0.01\""
 }
 set_args() {
-  echo "--set grid.h=0.02 --set grid.size=[0.6,0.16] --set time.dt=2e-4 --set stage[0].duration=0.06 --set stage[1].duration=$1 --set output.times=[0.05,0.1] --set output.series_dt=0.01"
+  echo "--set grid.h=0.02 --set grid.size=[0.6,0.16] --set time.dt=2e-4 --set stage[0].duration=0.06 --set stage[1].duration=$1 --set output.times=[0.02,$1] --set output.series_dt=0.01"
 }
 cat > design4.toml <<'D'
 [design]
@@ -62,7 +62,7 @@ data = "front.csv"
 J
 }
 printf 'x,y\n0.01,0.09\n0.05,0.078\n0.09,0.066\n0.13,0.054\n0.17,0.042\n0.21,0.03\n0.25,0.018\n0.29,0.006\n' > surface.csv
-printf 't,x\n0.02,0.21\n0.05,0.22\n0.1,0.23\n' > front.csv
+printf 't,x\n0.02,0.21\n0.04,0.22\n' > front.csv
 
 # Files of calibrate that hold no wall times must be equal byte for byte.
 same_calibration() {
@@ -90,7 +90,7 @@ ensemble_equal)  # 4 members over 2 ranks = one process, bit for bit (fixed step
   grep -q 'member_0003/runout.csv' two/granflow.manifest || fail "the manifest misses rank 1's members"
   ;;
 calibrate_equal)  # one ES-MDA iteration over 2 ranks = one process
-  job 1 0.1 > job.toml
+  job 1 0.04 > job.toml
   $G calibrate job.toml --out one --no-plot --quiet --threads 1 > one.txt 2>&1 || fail "one process: $(cat one.txt)"
   $MPIRUN $G calibrate job.toml --out two --no-plot --quiet --threads 1 > two.txt 2>&1 || fail "2 ranks: $(cat two.txt)"
   same_calibration one two
