@@ -90,6 +90,7 @@ def main():
         ax.set_xlabel("easting [m]")
         ax.set_ylabel("northing [m]")
         ax.ticklabel_format(useOffset=False, style="plain")
+        ax.locator_params(axis="x", nbins=4)  # georeferenced eastings are long labels
         ax.set_title("%s (cells of %.3g m)" % (name, cs))
         fig.tight_layout()
         save_png(fig, os.path.join(outdir, "map_%s.png" % name), 130)
