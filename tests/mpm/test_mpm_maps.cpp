@@ -235,3 +235,24 @@ TEST(TerrainMaps, OnlyTerrainRunsHaveMaps) {
   wrong.max_depth.assign(3, 0.0);
   EXPECT_THROW(m.restore(wrong), std::runtime_error);
 }
+
+// output.fields: a frame carries position and the listed arrays only; none listed, all of them.
+TEST(MpmOutputFields, FramesCarryTheListedArraysOnly) {
+  Frame f;
+  f.n = 2;
+  f.dim = 2;
+  f.x = {0, 1, 0, 1};
+  f.v = {0, 0, 0, 0};
+  for (auto* a : {&f.T, &f.p, &f.q, &f.eps_pd, &f.eta_c, &f.K_col, &f.e, &f.sxx, &f.syy, &f.sxy}) a->assign(2, 1.0);
+  Scratch s("fields");
+  fs::create_directories(s.dir);
+  const fs::path all = s.dir / "all.vtu", some = s.dir / "some.vtu";
+  write_vtu(all.string(), f, false);
+  write_vtu(some.string(), f, false, {"p", "e"});
+  const std::string a = read_text(all), b = read_text(some);
+  for (const std::string& name : frame_field_names()) {
+    EXPECT_NE(a.find("Name=\"" + name + "\""), std::string::npos) << name;
+    EXPECT_EQ(b.find("Name=\"" + name + "\"") != std::string::npos, name == "p" || name == "e") << name;
+  }
+  EXPECT_NE(b.find("Name=\"position\""), std::string::npos);
+}
