@@ -301,21 +301,36 @@ void run_mpm(const MpmOptions& o) {
   }
   std::printf("final run-out: %.4f m\nfinal height: %.4f m\nmax speed: %.4g m/s\n", s.final.runout, s.final.height,
               s.final.max_speed);
-  std::printf("output: %s (frames.pvd, runout.csv, tracked.csv, profile_final.csv)\n", out.c_str());
+  std::printf("output: %s (frames.pvd, runout.csv, tracked.csv, profile_final.csv%s)\n", out.c_str(),
+              sc.dim == 3 && sc.terrain ? ", deposit.csv, maps/" : "");
   if (g_signal != 0) {
     std::fprintf(stderr, "PNG snapshots skipped: interrupted after the run had completed\n");
   } else if (!o.no_png) {
+    // the system interpreter has the distribution's matplotlib; a pyenv/venv one may not
+    const std::string py = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
     const std::string script = locate_script("plot_mpm.py");
     if (script.empty()) {
       std::fprintf(stderr, "PNG snapshots skipped: scripts/plot_mpm.py not found\n");
     } else {
-      // the system interpreter has the distribution's matplotlib; a pyenv/venv one may not
-      const std::string py = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
       const std::string cmd = py + " '" + script + "' '" + out + "' --fields " + o.png_fields;
       if (std::system(cmd.c_str()) != 0) {
         std::error_code ec;
         fs::remove_all(out + "/png", ec);  // what it left is not a finished set of snapshots
         std::fprintf(stderr, "PNG snapshots skipped: '%s' failed\n", cmd.c_str());
+      }
+    }
+    if (sc.dim == 3 && sc.terrain && fs::exists(out + "/maps/terrain.asc")) {  // the maps over a hillshade
+      const std::string maps_script = locate_script("plot_maps.py");
+      if (maps_script.empty()) {
+        std::fprintf(stderr, "map PNGs skipped: scripts/plot_maps.py not found\n");
+      } else {
+        const std::string cmd = py + " '" + maps_script + "' '" + out + "'";
+        if (std::system(cmd.c_str()) != 0) {
+          std::error_code ec;
+          for (const char* m : {"deposit_thickness", "max_speed", "max_depth"})
+            fs::remove(out + "/png/map_" + std::string(m) + ".png", ec);
+          std::fprintf(stderr, "map PNGs skipped: '%s' failed\n", cmd.c_str());
+        }
       }
     }
   }
@@ -386,7 +401,7 @@ void register_mpm(CLI::App& app) {
   cmd->add_option("--precision", o->precision, "fp64, mixed or fp32: overrides the scene's solver.precision")
       ->check(CLI::IsMember({"fp64", "mixed", "fp32"}));
   add_override_options(cmd, o->overrides);
-  cmd->add_flag("--no-png", o->no_png, "do not call scripts/plot_mpm.py");
+  cmd->add_flag("--no-png", o->no_png, "do not call scripts/plot_mpm.py (nor plot_maps.py)");
   cmd->add_flag("--quiet", o->quiet, "no progress line");
   cmd->add_option("--span", o->span, "most steps queued without a host round-trip (1: one per step)")
       ->check(CLI::PositiveNumber);

@@ -1,6 +1,7 @@
 #include <granflow/io/raster.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -9,11 +10,14 @@
 #include <limits>
 #include <mutex>
 #include <sstream>
+#include <stdexcept>
 
 #include <granflow/io/input_error.hpp>
 
 #ifdef GRANFLOW_WITH_GDAL
+#include <cpl_conv.h>
 #include <cpl_error.h>
+#include <cpl_vsi.h>
 #include <gdal.h>
 #include <ogr_srs_api.h>
 #endif
@@ -304,6 +308,62 @@ Raster read_esri_ascii(const std::string& path) {
     if (wkt_is_geographic(r.crs)) refuse_geographic(path, ", " + prj.string());
   }
   return r;
+}
+
+std::string esri_ascii_text(const Raster& r) {
+  std::ostringstream os;
+  os.precision(15);
+  os << "ncols " << r.ncols << "\nnrows " << r.nrows << "\nxllcorner " << r.west << "\nyllcorner " << r.south
+     << "\ncellsize " << r.cellsize << "\nNODATA_value -9999\n";
+  os.precision(9);
+  for (long row = 0; row < r.nrows; ++row) {
+    for (long col = 0; col < r.ncols; ++col) {
+      const double v = r.at(row, col);
+      if (col > 0) os << ' ';
+      if (std::isnan(v)) os << "-9999"; else os << v;
+    }
+    os << '\n';
+  }
+  return os.str();
+}
+
+std::string geotiff_bytes(const Raster& r) {
+#ifdef GRANFLOW_WITH_GDAL
+  static std::once_flag registered;
+  std::call_once(registered, [] { GDALAllRegister(); });
+  struct QuietErrors {
+    QuietErrors() { CPLPushErrorHandler(CPLQuietErrorHandler); CPLErrorReset(); }
+    ~QuietErrors() { CPLPopErrorHandler(); }
+  } quiet;
+  static std::atomic<long> serial{0};
+  const std::string name = "/vsimem/granflow_map_" + std::to_string(serial++) + ".tif";
+  GDALDriverH drv = GDALGetDriverByName("GTiff");
+  if (!drv) throw std::runtime_error("GDAL has no GTiff driver");
+  GDALDatasetH ds = GDALCreate(drv, name.c_str(), static_cast<int>(r.ncols), static_cast<int>(r.nrows), 1,
+                               GDT_Float64, nullptr);
+  if (!ds) throw std::runtime_error("GDAL could not create a GeoTIFF (" + gdal_message("GDALCreate") + ")");
+  double gt[6] = {r.west, r.cellsize, 0.0, r.north(), 0.0, -r.cellsize};
+  GDALSetGeoTransform(ds, gt);
+  if (!r.crs.empty()) GDALSetProjection(ds, r.crs.c_str());  // an ESRI .prj GDAL cannot parse is left out
+  GDALRasterBandH band = GDALGetRasterBand(ds, 1);
+  GDALSetRasterNoDataValue(band, -9999.0);
+  std::vector<double> v(r.values);
+  for (double& x : v)
+    if (std::isnan(x)) x = -9999.0;
+  const CPLErr err = GDALRasterIO(band, GF_Write, 0, 0, static_cast<int>(r.ncols), static_cast<int>(r.nrows),
+                                  v.data(), static_cast<int>(r.ncols), static_cast<int>(r.nrows), GDT_Float64, 0, 0);
+  GDALClose(ds);
+  vsi_l_offset len = 0;
+  GByte* buf = VSIGetMemFileBuffer(name.c_str(), &len, TRUE);  // takes the buffer and removes the file
+  std::string out(reinterpret_cast<const char*>(buf), buf ? static_cast<size_t>(len) : 0);
+  CPLFree(buf);
+  if (err != CE_None || out.empty())
+    throw std::runtime_error("GDAL could not write a GeoTIFF (" + gdal_message("GDALRasterIO") + ")");
+  return out;
+#else
+  (void)r;
+  throw std::runtime_error("this build has no GDAL: GeoTIFF maps are not written");
+#endif
 }
 
 bool raster_gdal_available() {

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
 #include <string>
 
 #include <granflow/io/input_error.hpp>
@@ -121,6 +122,36 @@ TEST(Raster, CellCentreOriginIsHalfACellFromTheCorner) {
       if (std::isnan(za)) EXPECT_TRUE(std::isnan(zb)) << e << ", " << n;  // beside the NODATA cell
       else EXPECT_EQ(za, zb) << e << ", " << n;
     }
+}
+
+// What the maps are written with: esri_ascii_text gives the raster back through the reader (NaN
+// as NODATA, corner and cell size exact); with GDAL, geotiff_bytes as well.
+TEST(Raster, WrittenGridsReadBack) {
+  const TempDir t;
+  io::Raster a = io::read_raster(t.write("dem.asc", kGrid));
+  a.values[0] = 0.123456789;
+  a.west = 500000.025;  // UTM-sized
+  const io::Raster b = io::read_esri_ascii(t.write("back.asc", io::esri_ascii_text(a)));
+  EXPECT_EQ(b.ncols, a.ncols);
+  EXPECT_EQ(b.nrows, a.nrows);
+  EXPECT_EQ(b.west, a.west);
+  EXPECT_EQ(b.south, a.south);
+  EXPECT_EQ(b.cellsize, a.cellsize);
+  for (size_t i = 0; i < a.values.size(); ++i)
+    if (std::isnan(a.values[i])) EXPECT_TRUE(std::isnan(b.values[i])) << i; else EXPECT_EQ(b.values[i], a.values[i]) << i;
+  if (!io::raster_gdal_available()) {
+    EXPECT_THROW(io::geotiff_bytes(a), std::runtime_error);
+    return;
+  }
+  const std::string tif = (t.dir / "back.tif").string();
+  const std::string bytes = io::geotiff_bytes(a);
+  std::ofstream(tif, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  const io::Raster c = io::read_raster(tif);
+  EXPECT_EQ(c.west, a.west);
+  EXPECT_EQ(c.south, a.south);
+  EXPECT_EQ(c.cellsize, a.cellsize);
+  for (size_t i = 0; i < a.values.size(); ++i)
+    if (std::isnan(a.values[i])) EXPECT_TRUE(std::isnan(c.values[i])) << i; else EXPECT_EQ(c.values[i], a.values[i]) << i;
 }
 
 TEST(Raster, MalformedGridsNameFileAndLine) {

@@ -81,6 +81,11 @@ Checkpoint sample_checkpoint(long n, int dim) {
   s.consolidation = {true, 0.006, 1201.9, 1201.0};
   s.stats = {1000, 2670, 1, 311, 2, 3};
   s.wall_s = 12.5;
+  if (n > 0 && dim == 3) {  // a terrain run's maps (format version 2)
+    s.maps.max_speed = {0.5, 1.25, 0.0};
+    s.maps.max_depth = {0.01, 0.2, 0.0};
+    s.maps.deposit = {{0.0, -0.1, 0.0064, 3.84e-4, 0.08}, {0.01, -0.09, 0.0048, 3.8e-4, 0.09}};
+  }
   return c;
 }
 
@@ -273,6 +278,15 @@ TEST(MpmCheckpoint, RefusesAnotherSceneOrASetUpItDoesNotFit) {
     FAIL() << "accepted another scene's checkpoint";
   } catch (const CheckpointError& e) {
     EXPECT_NE(std::string(e.what()).find("different scene or parameter set"), std::string::npos) << e.what();
+  }
+  Checkpoint m = c;  // maps, but the scene has no terrain
+  m.loop.maps.max_speed = m.loop.maps.max_depth = {1.0};
+  try {
+    check_checkpoint(m, su, 7);
+    FAIL() << "accepted a checkpoint with maps the scene does not have";
+  } catch (const CheckpointError& e) {
+    EXPECT_NE(std::string(e.what()).find("maps of 1 terrain cells, the scene's footprint covers 0"), std::string::npos)
+        << e.what();
   }
   Checkpoint d = sample_checkpoint(su.particles.n + 1, 2);
   d.scene_hash = 7;

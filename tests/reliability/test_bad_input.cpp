@@ -154,6 +154,14 @@ TEST(BadInputControl, DefaultSceneAndJobRun) {
   o = run_case(dir, {"mpm", "t3.toml", "--out", "t3", "--no-png", "--quiet"});
   EXPECT_EQ(o.exit_code, 0) << o.err;
   EXPECT_TRUE(fs::exists(dir / "t3" / "runout.csv"));
+  {  // its maps and deposit series, listed in the manifest
+    std::ifstream in(dir / "t3" / "granflow.manifest");
+    std::stringstream manifest;
+    manifest << in.rdbuf();
+    for (const char* f : {"deposit.csv", "maps/deposit_thickness.asc", "maps/max_speed.asc", "maps/max_depth.asc",
+                          "maps/terrain.asc"})
+      EXPECT_NE(manifest.str().find(std::string("  ") + f + "\n"), std::string::npos) << f << " not in the manifest";
+  }
   o = run_case(dir, {"calibrate", "job.toml", "--out", "fit", "--no-plot", "--quiet", "--evaluate"});
   EXPECT_EQ(o.exit_code, 0) << o.err;
   EXPECT_TRUE(fs::exists(dir / "fit"));

@@ -15,7 +15,7 @@ namespace granflow::mpm {
 namespace {
 
 constexpr char kMagic[8] = {'G', 'F', 'M', 'P', 'M', 'C', 'K', 'P'};
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;  // 2: the maps of terrain runs
 constexpr std::uint32_t kByteOrder = 0x01020304;
 constexpr size_t kHeader = 8 + 4 + 4 + 8 + 8;
 
@@ -177,6 +177,11 @@ std::string encode_checkpoint(const Checkpoint& c) {
                  s.stats.separated})
     w.pod(static_cast<std::int64_t>(v));
   w.pod(s.wall_s);
+  w.doubles(s.maps.max_speed);
+  w.doubles(s.maps.max_depth);
+  w.pod(static_cast<std::uint64_t>(s.maps.deposit.size()));
+  for (const DepositRow& r : s.maps.deposit)
+    for (double v : {r.t, r.t_flow, r.area, r.volume, r.extent}) w.pod(v);
 
   std::string& b = w.bytes();
   const std::uint64_t payload = b.size() - kHeader;
@@ -266,6 +271,14 @@ Checkpoint decode_checkpoint(std::string_view b) {
                   &s.stats.vs_clamped, &s.stats.separated})
     *v = r.pod<std::int64_t>();
   s.wall_s = r.pod<double>();
+  s.maps.max_speed = r.doubles("maps.max_speed");
+  s.maps.max_depth = r.doubles("maps.max_depth");
+  if (s.maps.max_speed.size() != s.maps.max_depth.size()) Reader::fail("the maps have different cell counts");
+  for (std::uint64_t k = 0, n = r.count(40, "deposit series"); k < n; ++k) {
+    DepositRow row;
+    for (double* v : {&row.t, &row.t_flow, &row.area, &row.volume, &row.extent}) *v = r.pod<double>();
+    s.maps.deposit.push_back(row);
+  }
   if (r.at() != b.size() - 8) Reader::fail(std::to_string(b.size() - 8 - r.at()) + " unread bytes after the state");
   if (s.series.empty()) Reader::fail("no run-out sample (a run samples t = 0 first)");
   return c;
@@ -278,7 +291,7 @@ void write_checkpoint(const std::string& path, const Checkpoint& c) {
 }
 
 std::vector<std::string> checkpoint_outputs(const Checkpoint& c) {
-  std::vector<std::string> names = {kCheckpointFile, "frames.pvd", "runout.csv", "tracked.csv"};
+  std::vector<std::string> names = {kCheckpointFile, "frames.pvd", "runout.csv", "tracked.csv", "deposit.csv"};
   for (const auto& [t, file] : c.loop.pvd) names.push_back(file);
   return names;
 }
@@ -313,6 +326,12 @@ void check_checkpoint(const Checkpoint& c, const SceneSetup& su, std::uint64_t s
     why = "last good frame of " + std::to_string(s.last_good.n) + " points";
   for (const TrackRow& r : s.tracks)
     if (why.empty() && r.track >= sc.tracks.size()) why = "tracked point " + std::to_string(r.track);
+  if (why.empty()) {
+    const TerrainMaps maps(su);
+    if (s.maps.max_speed.size() != maps.state().max_speed.size())
+      why = "maps of " + std::to_string(s.maps.max_speed.size()) + " terrain cells, the scene's footprint covers " +
+            std::to_string(maps.state().max_speed.size());
+  }
   if (!why.empty()) throw CheckpointError("does not fit the scene: " + why);
 }
 

@@ -1,4 +1,5 @@
 // VTK XML UnstructuredGrid of vertices (one per material point) and the PVD index.
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <ostream>
@@ -59,7 +60,10 @@ std::vector<double> interleave3(const std::vector<double>& a, long n, int dim) {
 
 }  // namespace
 
-void write_vtu(const std::string& path, const Frame& fr, bool binary) {
+void write_vtu(const std::string& path, const Frame& fr, bool binary, const std::vector<std::string>& fields) {
+  auto wanted = [&](const char* name) {
+    return fields.empty() || std::find(fields.begin(), fields.end(), name) != fields.end();
+  };
   io::AtomicFile file(path, io::Durability::Buffered);  // synced with the checkpoint or the manifest
   {
     std::ostream& os = file.stream();
@@ -79,14 +83,17 @@ void write_vtu(const std::string& path, const Frame& fr, bool binary) {
     data_array(os, "Int32", "connectivity", 1, conn, binary);
     data_array(os, "Int32", "offsets", 1, offs, binary);
     data_array(os, "UInt8", "types", 1, types, binary);
-    os << "      </Cells>\n      <PointData Scalars=\"p\" Vectors=\"velocity\">\n";
-    data_array(os, "Float64", "velocity", 3, interleave3(fr.v, n, fr.dim), binary);
-    const std::pair<const char*, const std::vector<double>*> fields[] = {
+    os << "      </Cells>\n      <PointData";
+    if (wanted("p")) os << " Scalars=\"p\"";  // as before output.fields, light frames included
+    if (wanted("velocity")) os << " Vectors=\"velocity\"";
+    os << ">\n";
+    if (wanted("velocity")) data_array(os, "Float64", "velocity", 3, interleave3(fr.v, n, fr.dim), binary);
+    const std::pair<const char*, const std::vector<double>*> scalars[] = {
         {"p", &fr.p},         {"q", &fr.q},     {"eps_pd", &fr.eps_pd}, {"T", &fr.T},
         {"eta_c", &fr.eta_c}, {"K_col", &fr.K_col}, {"e", &fr.e},       {"sigma_xx", &fr.sxx},
         {"sigma_yy", &fr.syy}, {"sigma_xy", &fr.sxy}};
-    for (const auto& [name, v] : fields)
-      if (v->size() == static_cast<size_t>(n)) data_array(os, "Float64", name, 1, *v, binary);
+    for (const auto& [name, v] : scalars)
+      if (v->size() == static_cast<size_t>(n) && wanted(name)) data_array(os, "Float64", name, 1, *v, binary);
     os << "      </PointData>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n";
   }
   file.commit();

@@ -16,6 +16,7 @@
 #include <granflow/mpm/checkpoint.hpp>
 #include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/kernels.hpp>
+#include <granflow/mpm/maps.hpp>
 
 namespace granflow::mpm {
 namespace {
@@ -255,6 +256,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
   std::vector<std::pair<double, std::string>> pvd;
   int frame_no = 0;
   const std::vector<double>& mass = su.particles.m;
+  TerrainMaps maps(su);  // 3D terrain runs: maps and deposit.csv from the samples
 
   const double t_total = sc.duration();
   double t_release = 0;
@@ -291,8 +293,9 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     }
     last_good_t = t;
     const size_t row = sum.series.size() - 1;
-    pending = std::async(std::launch::async, [&, row] {
+    pending = std::async(std::launch::async, [&, row, t] {
       const Measures m = measure(fr, su, mass);
+      maps.sample(t, t - t_release, fr);
       sum.series[row].m = m;  // the main thread touches only .t of this row until settle()
       sum.final = m;
       last_good = fr;
@@ -302,7 +305,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     if (!files) return;
     char name[64];
     std::snprintf(name, sizeof name, "frame_%04d%s.vtu", frame_no++, tag.c_str());
-    write_vtu(opt.out_dir + "/" + name, f, sc.output.binary);
+    write_vtu(opt.out_dir + "/" + name, f, sc.output.binary, sc.output.fields);
     pvd.emplace_back(t, name);
     write_pvd(opt.out_dir + "/frames.pvd", pvd);
   };
@@ -340,12 +343,14 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     sum.consolidation = ls.consolidation;
     stats_before = ls.stats;
     wall_before = ls.wall_s;
+    maps.restore(ls.maps);
     sum.final = sum.series.back().m;
     runner.frame(fr, false, su.tracked);  // the current state; a sample at t would have given it
     resumed = true;
     if (files) {  // the index and the series as they were at the checkpoint
       write_pvd(opt.out_dir + "/frames.pvd", pvd);
       write_series_csv(opt.out_dir, sc, sum);
+      maps.write_deposit_csv(opt.out_dir);
       sum.checkpoint = ckpt_path;
       at.checkpoint_t = t;
     }
@@ -387,12 +392,14 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     ls.consolidation = sum.consolidation;
     ls.stats = stats_before + runner.update_stats();
     ls.wall_s = wall_before + elapsed();
+    ls.maps = maps.state();
     // the frames it lists on disk before it (the series and index are rewritten on restart)
     for (; synced_frames < pvd.size(); ++synced_frames) io::sync_path(opt.out_dir + "/" + pvd[synced_frames].second);
     write_checkpoint(ckpt_path, c);
     sum.checkpoint = ckpt_path;
     at.checkpoint_t = t;
     write_series_csv(opt.out_dir, sc, sum);  // readable series up to the checkpoint
+    maps.write_deposit_csv(opt.out_dir);
   };
 
   bool stop = t >= t_stop - 1e-12;  // a resumed run may already be at --stop-after
@@ -493,7 +500,11 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
 
   if (files) {
     write_series_csv(opt.out_dir, sc, sum);
-    if (!sum.interrupted) write_profile_csv(opt.out_dir + "/profile_final.csv", free_surface(sum.ok ? fr : last_good, su));
+    maps.write_deposit_csv(opt.out_dir);
+    if (!sum.interrupted) {
+      write_profile_csv(opt.out_dir + "/profile_final.csv", free_surface(sum.ok ? fr : last_good, su));
+      maps.write_maps(opt.out_dir, sum.ok ? fr : last_good);  // the last sample's frame: maxima include it
+    }
     if (complete && t >= t_total * (1 - 1e-12)) {  // nothing left to continue
       std::error_code ec;
       std::filesystem::remove(ckpt_path, ec);

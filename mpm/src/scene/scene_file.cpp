@@ -1,5 +1,6 @@
 #include <granflow/mpm/scene_file.hpp>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
@@ -427,6 +428,27 @@ Scene read_scene(const toml::table& doc, const std::string& path, const std::str
     sc.output.binary = o->choice("format", {"binary", "ascii"}, "binary") == "binary";
     sc.output.frames_in_stages = o->boolean_or("stage_frames", true);
     sc.output.checkpoint_dt = o->number_or("checkpoint_dt", 0.0, Bounds::positive());
+    if (o->has("fields")) {
+      const auto& valid = mpm::frame_field_names();
+      for (const std::string& f : o->strings("fields")) {
+        if (std::find(valid.begin(), valid.end(), f) != valid.end()) {
+          if (std::find(sc.output.fields.begin(), sc.output.fields.end(), f) == sc.output.fields.end())
+            sc.output.fields.push_back(f);
+          continue;
+        }
+        std::string list;
+        for (const auto& v : valid) list += (list.empty() ? "" : ", ") + v;
+        o->fail("fields", "unknown point array '" + f + "'; the frames can carry: " + list +
+                              " (position always)");
+      }
+    }
+    if (o->has("deposit_direction")) {
+      if (D != 3 || !sc.terrain) o->fail("deposit_direction", "deposit measures need a 3D scene with [terrain]");
+      const std::vector<double> d = o->numbers("deposit_direction", Bounds::any(), false);
+      if (d.size() != 2 || !std::isfinite(d[0]) || !std::isfinite(d[1]) || !(std::hypot(d[0], d[1]) > 0))
+        o->fail("deposit_direction", "needs a plan direction [dx, dz] of two numbers, not both zero");
+      sc.output.deposit_direction = d;
+    }
     const double last = sc.stages.back().duration;
     for (double t : sc.output.times)
       if (t > last * (1 + 1e-12))

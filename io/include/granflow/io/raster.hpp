@@ -51,6 +51,14 @@ Raster read_esri_ascii(const std::string& path);
 // square cells, scale and offset applied). Without GDAL only .asc is read.
 Raster read_raster(const std::string& path);
 
+// The text of an ESRI ASCII grid of r (xllcorner, yllcorner; NaN cells as NODATA_value -9999;
+// 9 significant digits): read_esri_ascii gives r back.
+std::string esri_ascii_text(const Raster& r);
+// The bytes of a GeoTIFF of r (one Float64 band, NODATA -9999, r.crs as its coordinate system),
+// made in GDAL's memory files so that the caller writes them through its checked path. Throws
+// std::runtime_error in a build without GDAL (raster_gdal_available()) or when GDAL fails.
+std::string geotiff_bytes(const Raster& r);
+
 // True when this build reads rasters through GDAL (CMake found it: GRANFLOW_WITH_GDAL).
 bool raster_gdal_available();
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "driver.hpp"
+#include "maps.hpp"
 
 namespace granflow::mpm {
 
@@ -37,6 +38,7 @@ struct LoopState {
   ConsolidationCheck consolidation;
   UpdateStats stats;        // summed over the steps before the checkpoint
   double wall_s = 0;
+  MapsState maps;           // 3D terrain runs: the maps' maxima and deposit rows so far
 };
 
 struct Checkpoint {

@@ -104,7 +104,8 @@ std::string bench_report(const SceneSetup& su, const Runner& runner, const Bench
 
 // Writers, through io::AtomicFile: a file appears under its name only complete; a failure
 // (io::OutputError) leaves the previous file.
-void write_vtu(const std::string& path, const Frame& fr, bool binary);
+// `fields`: the point arrays besides position (scene.hpp frame_field_names); empty: all.
+void write_vtu(const std::string& path, const Frame& fr, bool binary, const std::vector<std::string>& fields = {});
 void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& frames);
 
 }  // namespace granflow::mpm

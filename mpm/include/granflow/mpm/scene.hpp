@@ -137,7 +137,18 @@ struct OutputSpec {
   bool frames_in_stages = true;  // one frame at the end of every earlier stage
   std::vector<std::string> png_fields;  // fields plot_mpm.py draws
   double checkpoint_dt = 0;      // simulated time between checkpoints (0: only when interrupted)
+  // Point arrays of the VTU frames besides position (frame_field_names()); empty: all of them.
+  std::vector<std::string> fields;
+  // 3D terrain runs: the plan direction (x, z) of the deposit's extent in deposit.csv.
+  std::vector<double> deposit_direction = {1.0, 0.0};
 };
+
+// The point arrays a VTU frame may carry (output.fields), in the order they are written.
+inline const std::vector<std::string>& frame_field_names() {
+  static const std::vector<std::string> names = {"velocity", "p",   "q", "eps_pd",   "T",        "eta_c",
+                                                 "K_col",    "e",   "sigma_xx", "sigma_yy", "sigma_xy"};
+  return names;
+}
 
 struct Scene {
   std::string name;

@@ -1,0 +1,60 @@
+// Maps and deposit measures of a 3D terrain run (docs/mpm_terrain.md, "Maps"): per cell of the
+// terrain raster inside the grid's footprint, the bulk thickness (point volumes over the cell's
+// area), and the largest speed and thickness over the run's samples; and per sample the
+// deposit's area, volume and extent along a plan direction. Host-side, from frames.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "runner.hpp"
+
+namespace granflow::mpm {
+
+struct DepositRow {
+  double t = 0, t_flow = 0;
+  double area = 0, volume = 0, extent = 0;  // m^2, m^3, m
+};
+
+// What a restart must continue (the checkpoint payload): the maxima and the rows so far.
+struct MapsState {
+  std::vector<double> max_speed, max_depth;  // window cells, row-major (empty: no maps)
+  std::vector<DepositRow> deposit;
+};
+
+class TerrainMaps {
+ public:
+  // Inactive (nothing measured or written) unless the scene is 3D with a terrain.
+  explicit TerrainMaps(const SceneSetup& su);
+  bool active() const { return active_; }
+
+  // Thickness per window cell of a frame: the sum of the volumes (the seeded spacing^3 each) of
+  // the points whose plan position lies in the cell, over the cell's area.
+  std::vector<double> thickness(const Frame& fr) const;
+  // A sample at t: the maxima per cell, and a deposit row.
+  void sample(double t, double t_flow, const Frame& fr);
+
+  // The maps of the final frame, in dir/maps/: deposit_thickness, max_speed, max_depth and the
+  // terrain itself, as .asc (a .prj beside each where the terrain has a coordinate system) and,
+  // with GDAL, .tif; aligned with the terrain raster (its corner, cell size and cell count),
+  // NODATA outside the grid's footprint.
+  void write_maps(const std::string& dir, const Frame& final_frame) const;
+  // dir/deposit.csv: t, t_flow [s], area [m^2], volume [m^3], extent [m].
+  void write_deposit_csv(const std::string& dir) const;
+
+  const MapsState& state() const { return st_; }
+  // A checkpoint's state; refused (std::runtime_error) when its maps do not fit this set-up.
+  void restore(const MapsState& s);
+  // Window cells [row0, row1] x [col0, col1] of the terrain raster (row 0 the northern).
+  long row0 = 0, row1 = -1, col0 = 0, col1 = -1;
+
+ private:
+  long cell_of(double x, double z) const;  // window index of a plan position (clamped)
+  bool active_ = false;
+  const SceneSetup* su_ = nullptr;
+  double east0_ = 0, north0_ = 0;  // terrain.origin's easting and northing
+  double point_volume_ = 0, dir_x_ = 1, dir_z_ = 0;
+  MapsState st_;
+};
+
+}  // namespace granflow::mpm

@@ -1,0 +1,154 @@
+// Maps and deposit measures of 3D terrain runs on the terrain raster's cells (maps.hpp).
+#include <granflow/mpm/maps.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include <granflow/io/output.hpp>
+#include <granflow/io/raster.hpp>
+
+namespace granflow::mpm {
+
+TerrainMaps::TerrainMaps(const SceneSetup& su) : su_(&su) {
+  const Scene& sc = su.scene;
+  if (sc.dim != 3 || !sc.terrain || !sc.terrain->raster) return;
+  const io::Raster& r = *sc.terrain->raster;
+  east0_ = sc.terrain->origin[0];
+  north0_ = sc.terrain->origin[1];
+  // cells that overlap the grid's footprint by more than 1e-6 of a cell (the raster covers it: set-up checks)
+  const double e0 = east0_ + sc.origin[0], e1 = e0 + sc.size[0];
+  const double n0 = north0_ + sc.origin[2], n1 = n0 + sc.size[2];
+  const double cs = r.cellsize;
+  auto clampc = [](double v, long hi) { return std::clamp(static_cast<long>(v), 0L, hi); };
+  col0 = clampc(std::floor((e0 - r.west) / cs + 1e-6), r.ncols - 1);
+  col1 = std::max(col0, clampc(std::ceil((e1 - r.west) / cs - 1e-6) - 1, r.ncols - 1));
+  const long k0 = clampc(std::floor((n0 - r.south) / cs + 1e-6), r.nrows - 1);  // counted from the south
+  const long k1 = std::max(k0, clampc(std::ceil((n1 - r.south) / cs - 1e-6) - 1, r.nrows - 1));
+  row0 = r.nrows - 1 - k1;
+  row1 = r.nrows - 1 - k0;
+  point_volume_ = std::pow(su.spacing, 3);
+  if (sc.output.deposit_direction.size() == 2) {
+    const double dx = sc.output.deposit_direction[0], dz = sc.output.deposit_direction[1], len = std::hypot(dx, dz);
+    if (len > 0) {
+      dir_x_ = dx / len;
+      dir_z_ = dz / len;
+    }
+  }
+  const size_t cells = static_cast<size_t>((row1 - row0 + 1) * (col1 - col0 + 1));
+  st_.max_speed.assign(cells, 0.0);
+  st_.max_depth.assign(cells, 0.0);
+  active_ = true;
+}
+
+long TerrainMaps::cell_of(double x, double z) const {
+  const io::Raster& r = *su_->scene.terrain->raster;
+  const double cs = r.cellsize;
+  double c = std::floor((east0_ + x - r.west) / cs), k = std::floor((north0_ + z - r.south) / cs);
+  if (std::isnan(c)) c = -1;  // (a bad point's frame is never sampled; no cast of NaN all the same)
+  if (std::isnan(k)) k = -1;
+  // clamped: a point on the footprint's edge counts in the edge cell
+  const long col = std::clamp(static_cast<long>(std::clamp(c, -1.0, double(r.ncols))), col0, col1);
+  const long row = std::clamp(r.nrows - 1 - static_cast<long>(std::clamp(k, -1.0, double(r.nrows))), row0, row1);
+  return (row - row0) * (col1 - col0 + 1) + (col - col0);
+}
+
+std::vector<double> TerrainMaps::thickness(const Frame& fr) const {
+  std::vector<double> th(st_.max_depth.size(), 0.0);
+  if (!active_) return th;
+  const long n = fr.n;
+  for (long i = 0; i < n; ++i) th[cell_of(fr.x[i], fr.x[2 * n + i])] += point_volume_;
+  const double cs = su_->scene.terrain->raster->cellsize;
+  for (double& v : th) v /= cs * cs;
+  return th;
+}
+
+void TerrainMaps::sample(double t, double t_flow, const Frame& fr) {
+  if (!active_) return;
+  const std::vector<double> th = thickness(fr);
+  const long n = fr.n;
+  std::vector<long> cell(n);
+  for (long i = 0; i < n; ++i) {
+    cell[i] = cell_of(fr.x[i], fr.x[2 * n + i]);
+    double v2 = 0;
+    for (int d = 0; d < 3; ++d) v2 += fr.v[d * n + i] * fr.v[d * n + i];
+    st_.max_speed[cell[i]] = std::max(st_.max_speed[cell[i]], std::sqrt(v2));
+  }
+  const double cs = su_->scene.terrain->raster->cellsize, s = su_->spacing;
+  DepositRow row;
+  row.t = t;
+  row.t_flow = t_flow;
+  std::vector<char> deposit(th.size(), 0);
+  for (size_t c = 0; c < th.size(); ++c) {
+    st_.max_depth[c] = std::max(st_.max_depth[c], th[c]);
+    if (th[c] >= s * (1 - 1e-9)) {  // at least one point spacing thick
+      deposit[c] = 1;
+      row.area += cs * cs;
+      row.volume += th[c] * cs * cs;
+    }
+  }
+  double lo = std::numeric_limits<double>::max(), hi = -lo;
+  for (long i = 0; i < n; ++i) {
+    if (!deposit[cell[i]]) continue;
+    const double a = fr.x[i] * dir_x_ + fr.x[2 * n + i] * dir_z_;
+    lo = std::min(lo, a);
+    hi = std::max(hi, a);
+  }
+  if (hi >= lo) row.extent = hi - lo + s;  // half a spacing beyond the outermost points each way
+  st_.deposit.push_back(row);
+}
+
+void TerrainMaps::restore(const MapsState& s) {
+  if (!active_) {
+    if (!s.max_speed.empty() || !s.deposit.empty()) throw std::runtime_error("maps of a scene without terrain");
+    return;
+  }
+  if (s.max_speed.size() != st_.max_speed.size() || s.max_depth.size() != st_.max_depth.size())
+    throw std::runtime_error("maps of " + std::to_string(s.max_speed.size()) + " cells, the terrain's window has " +
+                             std::to_string(st_.max_speed.size()));
+  st_ = s;
+}
+
+void TerrainMaps::write_maps(const std::string& dir, const Frame& final_frame) const {
+  if (!active_) return;
+  const io::Raster& terrain = *su_->scene.terrain->raster;
+  const std::string folder = dir + "/maps";
+  io::make_folder(folder);
+  auto write = [&](const std::string& name, const std::vector<double>& window, bool from_terrain) {
+    io::Raster m;
+    m.ncols = terrain.ncols;
+    m.nrows = terrain.nrows;
+    m.west = terrain.west;
+    m.south = terrain.south;
+    m.cellsize = terrain.cellsize;
+    m.crs = terrain.crs;
+    m.values.assign(terrain.values.size(), std::numeric_limits<double>::quiet_NaN());
+    const long wc = col1 - col0 + 1;
+    for (long row = row0; row <= row1; ++row)
+      for (long col = col0; col <= col1; ++col)
+        m.values[static_cast<size_t>(row * m.ncols + col)] =
+            from_terrain ? terrain.at(row, col) : window[static_cast<size_t>((row - row0) * wc + (col - col0))];
+    const std::string base = folder + "/" + name;
+    io::write_file(base + ".asc", io::esri_ascii_text(m), io::Durability::Buffered);
+    if (!m.crs.empty()) io::write_file(base + ".prj", m.crs + "\n", io::Durability::Buffered);
+    if (io::raster_gdal_available()) io::write_file(base + ".tif", io::geotiff_bytes(m), io::Durability::Buffered);
+  };
+  write("deposit_thickness", thickness(final_frame), false);
+  write("max_speed", st_.max_speed, false);
+  write("max_depth", st_.max_depth, false);
+  write("terrain", {}, true);  // the plot script's hillshade, and the ground under the maps
+}
+
+void TerrainMaps::write_deposit_csv(const std::string& dir) const {
+  if (!active_) return;
+  std::ostringstream os;
+  os.precision(8);
+  os << "t,t_flow,area,volume,extent\n";
+  for (const DepositRow& r : st_.deposit)
+    os << r.t << ',' << r.t_flow << ',' << r.area << ',' << r.volume << ',' << r.extent << '\n';
+  io::write_file(dir + "/deposit.csv", os.str(), io::Durability::Buffered);
+}
+
+}  // namespace granflow::mpm

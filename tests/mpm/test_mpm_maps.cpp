@@ -1,0 +1,258 @@
+// Maps and deposit measures of 3D terrain runs (issue 33, part 3; docs/mpm_terrain.md, "Maps").
+// CPU twin, CI-sized scenes on a flat raster georeferenced at UTM-sized coordinates.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <granflow/io/raster.hpp>
+#include <granflow/mpm/checkpoint.hpp>
+#include <granflow/mpm/driver.hpp>
+#include <granflow/mpm/maps.hpp>
+
+#include "tiny_column.hpp"
+
+using namespace granflow;
+using namespace granflow::mpm;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kE0 = 500000.0, kN0 = 4000000.0, kZ0 = 100.0;  // terrain.origin
+const std::string kCrs = "PROJCS[\"granflow test, metres\",UNIT[\"metre\",1]]";
+
+struct Scratch {
+  fs::path dir;
+  explicit Scratch(const std::string& name)
+      : dir(fs::temp_directory_path() / ("granflow_maps_" + name + "_" + std::to_string(::getpid()))) {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+  ~Scratch() {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+};
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// A level raster at elevation kZ0 (scene y = 0): 8 x 8 cells of 4 cm from 4 cm west and south of
+// the grid's corner, so the 20 cm footprint covers columns and rows 1 to 5 (counted from the
+// west and from the south).
+std::shared_ptr<const io::Raster> flat_raster() {
+  auto r = std::make_shared<io::Raster>();
+  r->file = "flat.asc";
+  r->ncols = r->nrows = 8;
+  r->west = kE0 - 0.04;
+  r->south = kN0 - 0.04;
+  r->cellsize = 0.04;
+  r->values.assign(64, kZ0);
+  r->crs = kCrs;
+  return r;
+}
+
+// A frictional box [x0, x1] x [0, height] x [z0, z1] on the raster, one stage.
+Scene block_scene(double x0, double x1, double z0, double z1, double height, double duration, double damping) {
+  Scene sc = test::tiny_column(ModelKind::Frictional);
+  sc.material = flume_scene(0.04, 1e-4, ModelKind::Frictional, ShapeKind::Linear, 0.1).material;
+  sc.dim = 3;
+  sc.origin = {0.0, -0.04, 0.0};  // the ground (y = 0) on a node row
+  sc.size = {0.2, 0.24, 0.2};
+  sc.h = 0.02;
+  sc.gravity = {0.0, -9.81, 0.0};
+  sc.walls.clear();
+  sc.tracks.clear();
+  sc.runout_x.clear();
+  sc.runout_y.clear();
+  sc.output.times.clear();
+  sc.output.series_dt = 0.01;
+  Stage s;
+  s.name = "run";
+  s.duration = duration;
+  s.damping = damping;
+  sc.stages = {s};
+  Body b;
+  b.box_min = {x0, 0.0, z0};
+  b.box_max = {x1, height, z1};
+  sc.bodies = {b};
+  Terrain t;
+  t.raster = flat_raster();
+  t.file = t.raster->file;
+  t.origin = {kE0, kN0, kZ0};
+  sc.terrain = t;
+  return sc;
+}
+
+RunSummary run_to(const SceneSetup& su, const fs::path& out, double stop_after = -1, const Checkpoint* resume = nullptr) {
+  auto r = make_cpu_runner(su);
+  RunOptions opt;
+  opt.out_dir = out.string();
+  opt.progress = false;
+  opt.checkpoint_dt = 0.02;
+  opt.stop_after = stop_after;
+  opt.resume = resume;
+  return run(su, *r, opt);
+}
+
+// deposit.csv's rows (t, t_flow, area, volume, extent) after its header.
+std::vector<std::vector<double>> deposit_rows(const fs::path& out) {
+  std::istringstream in(read_text(out / "deposit.csv"));
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "t,t_flow,area,volume,extent");
+  std::vector<std::vector<double>> rows;
+  while (std::getline(in, line)) {
+    std::vector<double> row;
+    std::istringstream ls(line);
+    for (std::string cell; std::getline(ls, cell, ',');) row.push_back(std::stod(cell));
+    EXPECT_EQ(row.size(), 5u) << line;
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+}  // namespace
+
+// A block at rest on the flat raster, its sides on cell edges (columns and rows 2 and 3 from the
+// west and south): the thickness map holds its height on the four cells it covers, 0 on the rest
+// of the footprint and NODATA outside it; the map reads back through the raster reader with the
+// terrain's georeferencing and coordinate system; deposit.csv gives the block's volume, area and
+// extent along x (within 5 % of a spacing: its free edges bulge by 0.3 mm under the K0 stress).
+TEST(TerrainMaps, BlockAtRestGivesItsHeightAndVolume) {
+  const double H = 0.06;
+  Scene sc = block_scene(0.04, 0.12, 0.04, 0.12, H, 0.02, 0.5);
+  sc.initial.geostatic = true;
+  const SceneSetup su = make_setup(sc);
+  ASSERT_DOUBLE_EQ(su.spacing, 0.01);
+  Scratch s("rest");
+  const RunSummary res = run_to(su, s.dir);
+  ASSERT_TRUE(res.ok) << res.message;
+
+  const io::Raster m = io::read_esri_ascii((s.dir / "maps" / "deposit_thickness.asc").string());
+  const io::Raster& ground = *sc.terrain->raster;
+  EXPECT_EQ(m.ncols, ground.ncols);
+  EXPECT_EQ(m.nrows, ground.nrows);
+  EXPECT_DOUBLE_EQ(m.west, ground.west);
+  EXPECT_DOUBLE_EQ(m.south, ground.south);
+  EXPECT_DOUBLE_EQ(m.cellsize, ground.cellsize);
+  EXPECT_NE(m.crs.find(kCrs), std::string::npos) << m.crs;  // the .prj beside it
+  for (long row = 0; row < m.nrows; ++row)
+    for (long col = 0; col < m.ncols; ++col) {
+      const long k = m.nrows - 1 - row;  // from the south
+      const bool inside = col >= 1 && col <= 5 && k >= 1 && k <= 5;
+      const bool covered = (col == 2 || col == 3) && (k == 2 || k == 3);
+      const double v = m.at(row, col);
+      if (!inside)
+        EXPECT_TRUE(std::isnan(v)) << "row " << row << ", col " << col << ": " << v;
+      else if (covered)
+        EXPECT_NEAR(v, H, 1e-9) << "row " << row << ", col " << col;
+      else
+        EXPECT_EQ(v, 0.0) << "row " << row << ", col " << col;
+    }
+  const io::Raster terrain = io::read_esri_ascii((s.dir / "maps" / "terrain.asc").string());
+  EXPECT_EQ(terrain.at(3, 3), kZ0);
+  EXPECT_TRUE(std::isnan(terrain.at(0, 0)));
+  if (io::raster_gdal_available()) {  // the GeoTIFF holds the same cells
+    const io::Raster tif = io::read_raster((s.dir / "maps" / "deposit_thickness.tif").string());
+    EXPECT_DOUBLE_EQ(tif.west, ground.west);
+    EXPECT_DOUBLE_EQ(tif.south, ground.south);
+    for (size_t i = 0; i < m.values.size(); ++i)
+      if (std::isnan(m.values[i])) EXPECT_TRUE(std::isnan(tif.values[i])); else EXPECT_NEAR(tif.values[i], m.values[i], 1e-8);
+  }
+
+  const auto rows = deposit_rows(s.dir);
+  ASSERT_EQ(rows.size(), res.series.size());  // one row per sample
+  for (const auto& r : rows) {
+    EXPECT_NEAR(r[3], 0.08 * H * 0.08, 1e-10) << "t = " << r[0];  // volume
+    EXPECT_NEAR(r[2], 4 * 0.04 * 0.04, 1e-12);                    // area: the four cells
+    EXPECT_NEAR(r[4], 0.08, 0.05 * su.spacing);                   // extent along x (its edges bulge)
+  }
+  std::printf("block at rest: thickness %.6f m on its cells (height %.3f), volume %.6e m^3, extent %.5f m\n",
+              m.at(m.nrows - 1 - 2, 2), H, rows.back()[3], rows.back()[4]);
+}
+
+// A column collapsing on the flat raster: the maxima are not below the final values, cell by
+// cell (max_depth >= deposit_thickness, the final sample being one of them), the column's cells
+// saw its initial height, and a run stopped at a checkpoint and resumed writes the same maps and
+// deposit.csv, byte for byte, as the run straight through (the checkpoint carries the maxima).
+TEST(TerrainMaps, MaximaAreNotBelowTheFinalValuesAndSurviveARestart) {
+  const double H = 0.12;
+  const SceneSetup su = make_setup(block_scene(0.08, 0.12, 0.08, 0.12, H, 0.1, 0.0));
+  Scratch a("straight"), b("resumed");
+  ASSERT_TRUE(run_to(su, a.dir).ok);
+  const io::Raster dep = io::read_esri_ascii((a.dir / "maps" / "deposit_thickness.asc").string());
+  const io::Raster depth = io::read_esri_ascii((a.dir / "maps" / "max_depth.asc").string());
+  const io::Raster speed = io::read_esri_ascii((a.dir / "maps" / "max_speed.asc").string());
+  double fastest = 0, spread = 0;
+  for (size_t i = 0; i < dep.values.size(); ++i) {
+    ASSERT_EQ(std::isnan(dep.values[i]), std::isnan(depth.values[i]));
+    if (std::isnan(dep.values[i])) continue;
+    EXPECT_GE(depth.values[i], dep.values[i]) << "cell " << i;
+    if (dep.values[i] > 0) spread += 1;
+    fastest = std::max(fastest, speed.values[i]);
+  }
+  const long row = dep.nrows - 1 - 3, col = 3;  // the column's cell (from the south: 3)
+  EXPECT_NEAR(depth.at(row, col), H, 1e-9);
+  EXPECT_LT(dep.at(row, col), H - 0.01);  // it collapsed
+  EXPECT_GT(spread, 1);
+  EXPECT_GT(fastest, 0.1);
+  std::printf("collapse: column cell max depth %.4f m, final %.4f m; %g cells covered; fastest %.3f m/s\n",
+              depth.at(row, col), dep.at(row, col), spread, fastest);
+
+  ASSERT_TRUE(run_to(su, b.dir, 0.05).ok);
+  const Checkpoint c = read_checkpoint((b.dir / kCheckpointFile).string());
+  ASSERT_FALSE(c.loop.maps.max_depth.empty());
+  fs::remove_all(b.dir / "maps");  // what --restart removes (written after the checkpoint)
+  const RunSummary r = run_to(su, b.dir, -1, &c);
+  ASSERT_TRUE(r.ok) << r.message;
+  for (const char* f : {"maps/deposit_thickness.asc", "maps/max_speed.asc", "maps/max_depth.asc", "deposit.csv"})
+    EXPECT_EQ(read_text(b.dir / f), read_text(a.dir / f)) << f;
+}
+
+// Without terrain nothing is measured or written; a checkpoint's maps must fit the footprint.
+TEST(TerrainMaps, OnlyTerrainRunsHaveMaps) {
+  const SceneSetup plain = make_setup(test::tiny_column(ModelKind::Frictional));
+  EXPECT_FALSE(TerrainMaps(plain).active());
+  const SceneSetup su = make_setup(block_scene(0.04, 0.12, 0.04, 0.12, 0.04, 0.01, 0.5));
+  TerrainMaps m(su);
+  ASSERT_TRUE(m.active());
+  EXPECT_EQ(m.state().max_depth.size(), 25u);  // 5 x 5 cells
+  MapsState wrong;
+  wrong.max_speed.assign(3, 0.0);
+  wrong.max_depth.assign(3, 0.0);
+  EXPECT_THROW(m.restore(wrong), std::runtime_error);
+}
+
+// output.fields: a frame carries position and the listed arrays only; none listed, all of them.
+TEST(MpmOutputFields, FramesCarryTheListedArraysOnly) {
+  Frame f;
+  f.n = 2;
+  f.dim = 2;
+  f.x = {0, 1, 0, 1};
+  f.v = {0, 0, 0, 0};
+  for (auto* a : {&f.T, &f.p, &f.q, &f.eps_pd, &f.eta_c, &f.K_col, &f.e, &f.sxx, &f.syy, &f.sxy}) a->assign(2, 1.0);
+  Scratch s("fields");
+  fs::create_directories(s.dir);
+  const fs::path all = s.dir / "all.vtu", some = s.dir / "some.vtu";
+  write_vtu(all.string(), f, false);
+  write_vtu(some.string(), f, false, {"p", "e"});
+  const std::string a = read_text(all), b = read_text(some);
+  for (const std::string& name : frame_field_names()) {
+    EXPECT_NE(a.find("Name=\"" + name + "\""), std::string::npos) << name;
+    EXPECT_EQ(b.find("Name=\"" + name + "\"") != std::string::npos, name == "p" || name == "e") << name;
+  }
+  EXPECT_NE(b.find("Name=\"position\""), std::string::npos);
+}
