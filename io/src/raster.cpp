@@ -120,18 +120,27 @@ double centre_difference(const Raster& r, long row, long col, int drow, int dcol
 }
 
 #ifdef GRANFLOW_WITH_GDAL
+// While alive: GDAL's drivers registered (once per process) and its errors kept off stderr, so
+// that the caller can report CPLGetLastErrorMsg() in its own message.
+struct GdalSession {
+  GdalSession() {
+    static std::once_flag registered;
+    std::call_once(registered, [] { GDALAllRegister(); });
+    CPLPushErrorHandler(CPLQuietErrorHandler);
+    CPLErrorReset();
+  }
+  ~GdalSession() { CPLPopErrorHandler(); }
+  GdalSession(const GdalSession&) = delete;
+  GdalSession& operator=(const GdalSession&) = delete;
+};
+
 std::string gdal_message(const std::string& fallback) {
   const char* m = CPLGetLastErrorMsg();
   return m && *m ? std::string(m) : fallback;
 }
 
 Raster read_gdal(const std::string& path) {
-  static std::once_flag registered;
-  std::call_once(registered, [] { GDALAllRegister(); });
-  struct QuietErrors {
-    QuietErrors() { CPLPushErrorHandler(CPLQuietErrorHandler); CPLErrorReset(); }
-    ~QuietErrors() { CPLPopErrorHandler(); }
-  } quiet;
+  const GdalSession gdal;
   GDALDatasetH ds = GDALOpen(path.c_str(), GA_ReadOnly);
   if (!ds) throw InputError(where(path) + "not a raster GDAL can read (" + gdal_message("unknown format") + ")");
   struct Close {
@@ -329,12 +338,7 @@ std::string esri_ascii_text(const Raster& r) {
 
 std::string geotiff_bytes(const Raster& r) {
 #ifdef GRANFLOW_WITH_GDAL
-  static std::once_flag registered;
-  std::call_once(registered, [] { GDALAllRegister(); });
-  struct QuietErrors {
-    QuietErrors() { CPLPushErrorHandler(CPLQuietErrorHandler); CPLErrorReset(); }
-    ~QuietErrors() { CPLPopErrorHandler(); }
-  } quiet;
+  const GdalSession gdal;
   static std::atomic<long> serial{0};
   const std::string name = "/vsimem/granflow_map_" + std::to_string(serial++) + ".tif";
   GDALDriverH drv = GDALGetDriverByName("GTiff");
