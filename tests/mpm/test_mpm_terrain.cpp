@@ -24,10 +24,12 @@
 #include <granflow/mpm/scene_file.hpp>
 
 #include "one_thread.hpp"
+#include "sampled_run.hpp"
 #include "tiny_column.hpp"
 
 using namespace granflow;
 using namespace granflow::mpm;
+using namespace granflow::mpm::test;
 
 namespace {
 
@@ -82,45 +84,6 @@ RunSummary run_quiet(const SceneSetup& su, Frame& last) {
   RunSummary s = run(su, *r, opt);
   r->frame(last, false);
   return s;
-}
-
-// Mean velocity of the material along `dir` every `every` seconds of one-stage runs, and the
-// state after each stage.
-struct Motion {
-  std::vector<double> t, v;
-  std::vector<Frame> stage_end;
-};
-
-Motion mean_motion(const SceneSetup& su, const double* dir, double every) {
-  auto r = make_cpu_runner(su);
-  const long per = std::lround(every / su.scene.dt);
-  double M = 0;
-  for (double m : su.particles.m) M += m;
-  Motion out;
-  Span span;
-  span.dt = su.scene.dt;
-  double t_end = 0;
-  Frame f;
-  for (size_t si = 0; si < su.scene.stages.size(); ++si) {
-    const Stage& st = su.scene.stages[si];
-    r->set_stage(static_cast<int>(si), st.damping, st.flip.value_or(su.scene.flip));
-    t_end += st.duration;
-    while (span.t < t_end - 1e-9) {
-      span.max_steps = per;
-      const SpanResult res = r->advance_span(span);
-      EXPECT_TRUE(res.ok) << "particle " << res.particle << ": " << status_field(res.status);
-      if (!res.ok) return out;
-      span.t = res.t;
-      r->frame(f, false);
-      double p = 0;
-      for (long i = 0; i < f.n; ++i)
-        for (int d = 0; d < 3; ++d) p += su.particles.m[i] * f.v[d * f.n + i] * dir[d];
-      out.t.push_back(res.t);
-      out.v.push_back(p / M);
-    }
-    out.stage_end.push_back(f);
-  }
-  return out;
 }
 
 // Least-squares slope of v(t) over t0 <= t <= t1.
@@ -311,7 +274,7 @@ TEST(Terrain, BlockOnATiltedRasterSlidesAtTheCoulombRate) {
   const double theta = 30 * kDeg, phi = 30 * kDeg, tn = std::tan(theta);
   const double dx = std::cos(phi), dz = std::sin(phi);
   auto ground = raster(-0.05, -0.05, 0.05, 12, 12, [&](double e, double n) { return -tn * (e * dx + n * dz); });
-  const double dip[3] = {std::cos(theta) * dx, -std::sin(theta), std::cos(theta) * dz};
+  const std::vector<double> dip = {std::cos(theta) * dx, -std::sin(theta), std::cos(theta) * dz};
   auto slide = [&](double mu, double& rate) {
     Scene sc = terrain_scene({0.5, 0.48, 0.5}, 0.02, ground, {0.0, 0.0, -0.46}, mu);
     sc.bodies = {slab_on_terrain(sc, 0.04, 0.06, 0.2)};
@@ -355,7 +318,7 @@ TEST(Terrain, BlockOnATiltedRasterSlidesCiSized) {
   const double theta = 30 * kDeg, phi = 30 * kDeg, tn = std::tan(theta);
   const double dx = std::cos(phi), dz = std::sin(phi);
   auto ground = raster(-0.05, -0.05, 0.05, 12, 12, [&](double e, double n) { return -tn * (e * dx + n * dz); });
-  const double dip[3] = {std::cos(theta) * dx, -std::sin(theta), std::cos(theta) * dz};
+  const std::vector<double> dip = {std::cos(theta) * dx, -std::sin(theta), std::cos(theta) * dz};
   const double t_settle = 0.05, t_free = 0.05;
   auto slide = [&](double mu) {
     Scene sc = terrain_scene({0.5, 0.48, 0.5}, 0.02, ground, {0.0, 0.0, -0.46}, mu);
