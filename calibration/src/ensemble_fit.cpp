@@ -16,20 +16,11 @@
 
 #include <filesystem>
 #include <fstream>
+#include "common.hpp"
 
 namespace granflow::calibration {
 
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-std::string num(double v) {
-  std::ostringstream os;
-  os.precision(6);
-  os << v;
-  return os.str();
-}
-
 
 // ---- the saved ES-MDA state (FitOptions::state_file) ------------------------------------
 // Format (host byte order): "GFESMDA1", the job's key, the state, then the SHA-256 of what

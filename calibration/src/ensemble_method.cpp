@@ -10,13 +10,13 @@
 #include <stdexcept>
 
 #include <Eigen/Dense>
+#include "common.hpp"
 
 namespace granflow::calibration {
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 std::uint64_t splitmix64(std::uint64_t x) {
   x += 0x9E3779B97F4A7C15ull;

@@ -20,12 +20,11 @@
 #include <granflow/io/input_error.hpp>
 #include <granflow/io/output.hpp>
 #include <granflow/io/share.hpp>
+#include "common.hpp"
 
 namespace granflow::calibration {
 
 namespace {
-
-const double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Sums {
   double ss = 0;

@@ -17,6 +17,7 @@
 #include <granflow/io/run_folder.hpp>
 #include <granflow/io/share.hpp>
 #include <granflow/io/toml_reader.hpp>
+#include "common.hpp"
 
 
 namespace granflow::calibration {
@@ -24,12 +25,6 @@ namespace granflow::calibration {
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string num(double v, int prec = 6) {
-  std::ostringstream os;
-  os << std::setprecision(prec) << v;
-  return os.str();
-}
 
 // A number in the report; "-" where the quantity is undefined (the reason is printed below it).
 std::string shown(double v, int prec = 6) { return std::isfinite(v) ? num(v, prec) : "-"; }

@@ -13,14 +13,13 @@
 #include "granflow/calibration/fit.hpp"
 #include <granflow/io/output.hpp>
 #include <granflow/io/share.hpp>
+#include "common.hpp"
 
 namespace granflow::calibration {
 
 namespace fs = std::filesystem;
 
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 bool is_q(const Curve& c) { return c.model_output == "q" || c.model_output == "q_axial"; }
 bool is_p(const Curve& c) { return c.model_output == "p" || c.model_output == "p_f"; }
@@ -103,7 +102,7 @@ TestMetrics metrics(const Experiment& e, const std::string& role, const io::Para
   return m;
 }
 
-std::string num(double v, int prec = 3) {
+std::string report_num(double v, int prec = 3) {
   if (!std::isfinite(v)) return "-";
   std::ostringstream os;
   os << std::setprecision(prec) << v;
@@ -159,11 +158,11 @@ std::string format_test_report(const TestReport& report) {
     goals = ok ? "met" : "MISSED";
     if (t.role == "fit" && !std::isfinite(t.min_p_data)) goals = "(fitted)";
     os << std::left << std::setw(10) << t.test << std::setw(8) << t.role << std::setw(20) << t.path << std::right
-       << std::setw(9) << (num(t.e0, 4) + (t.e0_fitted ? "*" : "")) << std::setw(9)
-       << (std::isfinite(t.peak_q) ? num(t.peak_q / 1e3, 4) + "k" : "-") << std::setw(8) << num(t.rms_q, 2)
-       << std::setw(8) << num(t.rms_p, 2) << std::setw(16) << (num(t.e_rms, 2) + " / " + num(t.e_max, 2))
-       << std::setw(18) << (num(t.eps_v_rms, 2) + " / " + num(t.eps_v_max, 2)) << std::setw(15)
-       << (std::isfinite(t.min_p_data) ? num(t.min_p_data, 2) + " / " + num(t.min_p_model, 2) : "-") << "  "
+       << std::setw(9) << (report_num(t.e0, 4) + (t.e0_fitted ? "*" : "")) << std::setw(9)
+       << (std::isfinite(t.peak_q) ? report_num(t.peak_q / 1e3, 4) + "k" : "-") << std::setw(8) << report_num(t.rms_q, 2)
+       << std::setw(8) << report_num(t.rms_p, 2) << std::setw(16) << (report_num(t.e_rms, 2) + " / " + report_num(t.e_max, 2))
+       << std::setw(18) << (report_num(t.eps_v_rms, 2) + " / " + report_num(t.eps_v_max, 2)) << std::setw(15)
+       << (std::isfinite(t.min_p_data) ? report_num(t.min_p_data, 2) + " / " + report_num(t.min_p_model, 2) : "-") << "  "
        << goals << (t.failure.empty() ? "" : " (" + t.failure.substr(0, 100) + ")") << "\n";
   }
   os << "(* e0 fitted per test.) held-out tests meeting every goal: " << met << " of " << held << "\n";

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <string>
 
 #include <granflow/constitutive.hpp>
@@ -13,6 +14,13 @@
 
 namespace gt = granflow::elementtest;
 using granflow::io::ParameterSet;
+
+// Writes text to the test's temporary folder; returns the path.
+inline std::string write(const std::string& name, const std::string& text) {
+  const std::string p = ::testing::TempDir() + "/" + name;
+  std::ofstream(p) << text;
+  return p;
+}
 
 inline ParameterSet pset(const std::string& name) { return granflow::io::load_parameter_set(name); }
 

@@ -7,12 +7,6 @@
 
 namespace {
 
-std::string write(const std::string& name, const std::string& text) {
-  const std::string p = ::testing::TempDir() + "/" + name;
-  std::ofstream(p) << text;
-  return p;
-}
-
 std::string error_of(const std::string& path) {
   try {
     gt::load_test_file(path);

@@ -8,8 +8,6 @@
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 struct Case {
   gt::LoadingPath path;
   double direction;      // +1 compression, -1 extension
@@ -53,12 +51,6 @@ std::vector<Case> all_triaxial_cases() {
 // g = (3 - sin phi)/(3 + sin phi)).
 double m_compression(double phi) { return 6 * std::sin(phi) / (3 - std::sin(phi)); }
 double m_extension(double phi) { return 6 * std::sin(phi) / (3 + std::sin(phi)); }
-
-std::string write(const std::string& name, const std::string& text) {
-  const std::string p = ::testing::TempDir() + "/" + name;
-  std::ofstream(p) << text;
-  return p;
-}
 
 }  // namespace
 
@@ -126,7 +118,7 @@ TEST(ElementPaths, DrainedCompressionAndExtensionEndOnTheirCriticalStateLines) {
     EXPECT_NEAR(eta / m, 1.0, 0.02) << c.label() << ": q/p = " << eta;
   }
   EXPECT_LT(m_extension(f.phi_c), m_compression(f.phi_c));
-  EXPECT_NEAR(f.phi_c, 30 * kPi / 180, 1e-12);
+  EXPECT_NEAR(f.phi_c, 30 * M_PI / 180, 1e-12);
 }
 
 // Stress-controlled oedometer with unloading and reloading, its programme read from a data file
@@ -228,7 +220,7 @@ TEST(ElementPaths, StressControlOfASofteningStateStopsWithAChatteringError) {
   f.K0 = 206.78353877566397;
   f.nu = 0.20434650353796102;
   f.n = 0.48072839101614406;
-  f.phi_c = 33.776111611080452 * kPi / 180;
+  f.phi_c = 33.776111611080452 * M_PI / 180;
   f.e_ref = 1.0752755378910597;
   f.lambda_c = 0.12865703465313433;
   f.xi = 1.0865767776254567;

@@ -12,13 +12,12 @@
 #include <granflow/mpm/scene_file.hpp>
 #include "one_thread.hpp"
 #include "tiny_column.hpp"
+#include "test_constants.hpp"
 
 using namespace granflow;
 using namespace granflow::mpm;
 
 namespace {
-
-const std::string kScenes = std::string(GRANFLOW_SOURCE_DIR) + "/mpm/scenes/";
 
 struct SlabRun {
   RunSummary s;

@@ -16,15 +16,13 @@
 #include "one_thread.hpp"
 #include "sampled_run.hpp"
 #include "tiny_column.hpp"
+#include "test_constants.hpp"
 
 using namespace granflow;
 using namespace granflow::mpm;
 using namespace granflow::mpm::test;
 
 namespace {
-
-constexpr double kG = 9.81;
-constexpr double kDeg = M_PI / 180;
 
 // Frictional material of the flume set (phi_c = 38 deg: a base friction up to ~0.7 slides the
 // block rather than shearing it) on a 20 mm grid, FLIP with the PIC rate of the paper scenes.

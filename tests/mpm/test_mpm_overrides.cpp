@@ -17,14 +17,13 @@
 #include <granflow/mpm/scene_file.hpp>
 
 #include "one_thread.hpp"
+#include "test_constants.hpp"
 
 using namespace granflow;
 using namespace granflow::mpm;
 namespace fs = std::filesystem;
 
 namespace {
-
-const std::string kScenes = std::string(GRANFLOW_SOURCE_DIR) + "/mpm/scenes/";
 
 // Line numbers in the messages below refer to this text.
 const std::string kTiny =

@@ -26,16 +26,13 @@
 #include "one_thread.hpp"
 #include "sampled_run.hpp"
 #include "tiny_column.hpp"
+#include "test_constants.hpp"
 
 using namespace granflow;
 using namespace granflow::mpm;
 using namespace granflow::mpm::test;
 
 namespace {
-
-constexpr double kG = 9.81;
-constexpr double kDeg = M_PI / 180;
-const std::string kScenes = std::string(GRANFLOW_SOURCE_DIR) + "/mpm/scenes/";
 
 // A folder of its own under the temporary folder (process id: parallel ctest runs), removed again.
 struct TempDir {
