@@ -20,7 +20,7 @@ opts=() what="existing build/ options"
 if [ ! -f build/CMakeCache.txt ]; then
   cuda=OFF
   if nvidia-smi -L >/dev/null 2>&1; then cuda=ON; fi
-  opts=(-DGRANFLOW_TESTS=OFF -DGRANFLOW_CUDA=$cuda) what="tests off, CUDA $cuda"
+  opts=(-DGRANFLOW_TESTS=OFF -DGRANFLOW_CUDA=$cuda -DCMAKE_UNITY_BUILD=ON) what="tests off, CUDA $cuda, unity build"
 fi
 scripts/build.sh --target granflow "${opts[@]}"
 took "build ($what)"

@@ -15,7 +15,7 @@ start=$(date +%s)
 # (docs/reliability_ci.md).
 source scripts/generator.sh
 cmake -S . -B build-asan $(cmake_generator build-asan) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
-      -DGRANFLOW_SANITIZE=ON -DGRANFLOW_CUDA=OFF -DGRANFLOW_TESTS=ON >/dev/null
+      -DGRANFLOW_SANITIZE=ON -DGRANFLOW_CUDA=OFF -DGRANFLOW_TESTS=ON -DCMAKE_UNITY_BUILD=ON >/dev/null
 cmake --build build-asan -j"$jobs"
 built=$(date +%s)
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:detect_stack_use_after_return=1:check_initialization_order=1:strict_init_order=1}
