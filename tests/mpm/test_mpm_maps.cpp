@@ -222,6 +222,60 @@ TEST(TerrainMaps, MaximaAreNotBelowTheFinalValuesAndSurviveARestart) {
     EXPECT_EQ(read_text(b.dir / f), read_text(a.dir / f)) << f;
 }
 
+// A raster finer than the point spacing (4 mm cells, 1 cm spacing) stripes the thickness map: a
+// cell holds a column of points or none. output.map_cell = 2 cm joins 5 x 5 raster cells per
+// map cell: the block's cells read its height, the map keeps the raster's corner, and both maps
+// hold the block's whole volume.
+TEST(TerrainMaps, MapCellJoinsRasterCellsAndEndsTheStripes) {
+  const double H = 0.04;
+  auto fine = std::make_shared<io::Raster>(*flat_raster());
+  fine->ncols = fine->nrows = 80;
+  fine->cellsize = 0.004;
+  fine->values.assign(80 * 80, kZ0);
+  Scene sc = block_scene(0.04, 0.12, 0.04, 0.12, H, 0.01, 0.5);
+  sc.initial.geostatic = true;
+  sc.terrain->raster = fine;
+  Scene joined = sc;
+  joined.output.map_cell = 0.02;
+  const SceneSetup su = make_setup(sc), sj = make_setup(joined);
+  ASSERT_DOUBLE_EQ(su.spacing, 0.01);
+  Scratch a("fine"), b("joined");
+  ASSERT_TRUE(run_to(su, a.dir).ok);
+  ASSERT_TRUE(run_to(sj, b.dir).ok);
+  const io::Raster mf = io::read_esri_ascii((a.dir / "maps" / "deposit_thickness.asc").string());
+  const io::Raster mj = io::read_esri_ascii((b.dir / "maps" / "deposit_thickness.asc").string());
+  EXPECT_EQ(mf.ncols, 80);
+  EXPECT_EQ(mj.ncols, 16);
+  EXPECT_EQ(mj.nrows, 16);
+  EXPECT_DOUBLE_EQ(mj.cellsize, 0.02);
+  EXPECT_DOUBLE_EQ(mj.west, fine->west);
+  EXPECT_DOUBLE_EQ(mj.south, fine->south);
+  auto volume = [](const io::Raster& m) {
+    double v = 0;
+    for (double t : m.values)
+      if (!std::isnan(t)) v += t * m.cellsize * m.cellsize;
+    return v;
+  };
+  EXPECT_NEAR(volume(mf), 0.08 * 0.08 * H, 1e-10);
+  EXPECT_NEAR(volume(mj), 0.08 * 0.08 * H, 1e-10);
+  // under the block (x, z in [0.04, 0.12] m: raster columns 20 to 39 from the west, 4 mm each)
+  double lo = 1e9, hi = 0;
+  for (long k = 21; k < 39; ++k)
+    for (long col = 21; col < 39; ++col) {
+      lo = std::min(lo, mf.at(mf.nrows - 1 - k, col));
+      hi = std::max(hi, mf.at(mf.nrows - 1 - k, col));
+    }
+  EXPECT_EQ(lo, 0.0);
+  EXPECT_GT(hi, 3 * H);
+  for (long k = 4; k < 8; ++k)  // map cells of 2 cm: the block covers 4 to 7 whole
+    for (long col = 4; col < 8; ++col) EXPECT_NEAR(mj.at(mj.nrows - 1 - k, col), H, 1e-9) << k << ", " << col;
+  const io::Raster terrain = io::read_esri_ascii((b.dir / "maps" / "terrain.asc").string());
+  EXPECT_EQ(terrain.cellsize, 0.02);
+  EXPECT_EQ(terrain.at(terrain.nrows - 1 - 5, 5), kZ0);
+  std::printf("map cells of 4 mm: thickness %.3f to %.3f m under a %.2f m block; of 2 cm: %.6f m\n", lo, hi, H,
+              mj.at(mj.nrows - 1 - 5, 5));
+}
+
 // Without terrain nothing is measured or written; a checkpoint's maps must fit the footprint.
 TEST(TerrainMaps, OnlyTerrainRunsHaveMaps) {
   const SceneSetup plain = make_setup(test::tiny_column(ModelKind::Frictional));

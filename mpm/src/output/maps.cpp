@@ -18,17 +18,23 @@ TerrainMaps::TerrainMaps(const SceneSetup& su) : su_(&su) {
   const io::Raster& r = *sc.terrain->raster;
   east0_ = sc.terrain->origin[0];
   north0_ = sc.terrain->origin[1];
+  // The map cells: blocks of block x block raster cells from the raster's south-west corner
+  // (output.map_cell); the last column and row of blocks may reach past the raster.
+  block_ = sc.output.map_cell > 0 ? std::max(1L, std::lround(sc.output.map_cell / r.cellsize)) : 1;
+  cellsize_ = r.cellsize * block_;
+  ncols_ = (r.ncols + block_ - 1) / block_;
+  nrows_ = (r.nrows + block_ - 1) / block_;
   // cells that overlap the grid's footprint by more than 1e-6 of a cell (the raster covers it: set-up checks)
   const double e0 = east0_ + sc.origin[0], e1 = e0 + sc.size[0];
   const double n0 = north0_ + sc.origin[2], n1 = n0 + sc.size[2];
-  const double cs = r.cellsize;
+  const double cs = cellsize_;
   auto clampc = [](double v, long hi) { return std::clamp(static_cast<long>(v), 0L, hi); };
-  col0 = clampc(std::floor((e0 - r.west) / cs + 1e-6), r.ncols - 1);
-  col1 = std::max(col0, clampc(std::ceil((e1 - r.west) / cs - 1e-6) - 1, r.ncols - 1));
-  const long k0 = clampc(std::floor((n0 - r.south) / cs + 1e-6), r.nrows - 1);  // counted from the south
-  const long k1 = std::max(k0, clampc(std::ceil((n1 - r.south) / cs - 1e-6) - 1, r.nrows - 1));
-  row0 = r.nrows - 1 - k1;
-  row1 = r.nrows - 1 - k0;
+  col0 = clampc(std::floor((e0 - r.west) / cs + 1e-6), ncols_ - 1);
+  col1 = std::max(col0, clampc(std::ceil((e1 - r.west) / cs - 1e-6) - 1, ncols_ - 1));
+  const long k0 = clampc(std::floor((n0 - r.south) / cs + 1e-6), nrows_ - 1);  // counted from the south
+  const long k1 = std::max(k0, clampc(std::ceil((n1 - r.south) / cs - 1e-6) - 1, nrows_ - 1));
+  row0 = nrows_ - 1 - k1;
+  row1 = nrows_ - 1 - k0;
   point_volume_ = std::pow(su.spacing, 3);
   if (sc.output.deposit_direction.size() == 2) {
     const double dx = sc.output.deposit_direction[0], dz = sc.output.deposit_direction[1], len = std::hypot(dx, dz);
@@ -45,13 +51,13 @@ TerrainMaps::TerrainMaps(const SceneSetup& su) : su_(&su) {
 
 long TerrainMaps::cell_of(double x, double z) const {
   const io::Raster& r = *su_->scene.terrain->raster;
-  const double cs = r.cellsize;
+  const double cs = cellsize_;
   double c = std::floor((east0_ + x - r.west) / cs), k = std::floor((north0_ + z - r.south) / cs);
   if (std::isnan(c)) c = -1;  // (a bad point's frame is never sampled; no cast of NaN all the same)
   if (std::isnan(k)) k = -1;
   // clamped: a point on the footprint's edge counts in the edge cell
-  const long col = std::clamp(static_cast<long>(std::clamp(c, -1.0, double(r.ncols))), col0, col1);
-  const long row = std::clamp(r.nrows - 1 - static_cast<long>(std::clamp(k, -1.0, double(r.nrows))), row0, row1);
+  const long col = std::clamp(static_cast<long>(std::clamp(c, -1.0, double(ncols_))), col0, col1);
+  const long row = std::clamp(nrows_ - 1 - static_cast<long>(std::clamp(k, -1.0, double(nrows_))), row0, row1);
   return (row - row0) * (col1 - col0 + 1) + (col - col0);
 }
 
@@ -60,8 +66,7 @@ std::vector<double> TerrainMaps::thickness(const Frame& fr) const {
   if (!active_) return th;
   const long n = fr.n;
   for (long i = 0; i < n; ++i) th[cell_of(fr.x[i], fr.x[2 * n + i])] += point_volume_;
-  const double cs = su_->scene.terrain->raster->cellsize;
-  for (double& v : th) v /= cs * cs;
+  for (double& v : th) v /= cellsize_ * cellsize_;
   return th;
 }
 
@@ -76,7 +81,7 @@ void TerrainMaps::sample(double t, double t_flow, const Frame& fr) {
     for (int d = 0; d < 3; ++d) v2 += fr.v[d * n + i] * fr.v[d * n + i];
     st_.max_speed[cell[i]] = std::max(st_.max_speed[cell[i]], std::sqrt(v2));
   }
-  const double cs = su_->scene.terrain->raster->cellsize, s = su_->spacing;
+  const double cs = cellsize_, s = su_->spacing;
   DepositRow row;
   row.t = t;
   row.t_flow = t_flow;
@@ -111,25 +116,41 @@ void TerrainMaps::restore(const MapsState& s) {
   st_ = s;
 }
 
+double TerrainMaps::terrain_mean(long row, long col) const {
+  const io::Raster& r = *su_->scene.terrain->raster;
+  // map row `row` (from the north) covers raster rows counted from the south [k0, k0 + block)
+  const long k0 = (nrows_ - 1 - row) * block_, c0 = col * block_;
+  double sum = 0;
+  long n = 0;
+  for (long k = k0; k < std::min(k0 + block_, r.nrows); ++k)
+    for (long c = c0; c < std::min(c0 + block_, r.ncols); ++c) {
+      const double z = r.at(r.nrows - 1 - k, c);
+      if (std::isnan(z)) continue;
+      sum += z;
+      ++n;
+    }
+  return n ? sum / n : std::numeric_limits<double>::quiet_NaN();
+}
+
 void TerrainMaps::write_maps(const std::string& dir, const Frame& final_frame) const {
   if (!active_) return;
   const io::Raster& terrain = *su_->scene.terrain->raster;
   const std::string folder = dir + "/maps";
   io::make_folder(folder);
+  io::Raster m;  // the map cells, georeferenced like the terrain
+  m.ncols = ncols_;
+  m.nrows = nrows_;
+  m.west = terrain.west;
+  m.south = terrain.south;
+  m.cellsize = cellsize_;
+  m.crs = terrain.crs;
+  const long wc = col1 - col0 + 1;
   auto write = [&](const std::string& name, const std::vector<double>& window, bool from_terrain) {
-    io::Raster m;
-    m.ncols = terrain.ncols;
-    m.nrows = terrain.nrows;
-    m.west = terrain.west;
-    m.south = terrain.south;
-    m.cellsize = terrain.cellsize;
-    m.crs = terrain.crs;
-    m.values.assign(terrain.values.size(), std::numeric_limits<double>::quiet_NaN());
-    const long wc = col1 - col0 + 1;
+    m.values.assign(static_cast<size_t>(ncols_ * nrows_), std::numeric_limits<double>::quiet_NaN());
     for (long row = row0; row <= row1; ++row)
       for (long col = col0; col <= col1; ++col)
         m.values[static_cast<size_t>(row * m.ncols + col)] =
-            from_terrain ? terrain.at(row, col) : window[static_cast<size_t>((row - row0) * wc + (col - col0))];
+            from_terrain ? terrain_mean(row, col) : window[static_cast<size_t>((row - row0) * wc + (col - col0))];
     const std::string base = folder + "/" + name;
     io::write_file(base + ".asc", io::esri_ascii_text(m), io::Durability::Buffered);
     if (!m.crs.empty()) io::write_file(base + ".prj", m.crs + "\n", io::Durability::Buffered);

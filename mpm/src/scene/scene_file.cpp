@@ -449,6 +449,20 @@ Scene read_scene(const toml::table& doc, const std::string& path, const std::str
         o->fail("deposit_direction", "needs a plan direction [dx, dz] of two numbers, not both zero");
       sc.output.deposit_direction = d;
     }
+    if (o->has("map_cell")) {
+      if (D != 3 || !sc.terrain) o->fail("map_cell", "maps need a 3D scene with [terrain]");
+      const double c = o->number("map_cell", Bounds::positive());
+      const double cs = sc.terrain->raster->cellsize, k = std::round(c / cs);
+      auto g = [](double v) {
+        std::ostringstream os;
+        os << v;
+        return os.str();
+      };
+      if (k < 1 || std::abs(c - k * cs) > 1e-9 * c)
+        o->fail("map_cell", "must be a whole multiple of the terrain raster's cell size " + g(cs) + " m (" +
+                                sc.terrain->file + "), e.g. " + g(std::max(1.0, k) * cs));
+      sc.output.map_cell = k * cs;
+    }
     const double last = sc.stages.back().duration;
     for (double t : sc.output.times)
       if (t > last * (1 + 1e-12))

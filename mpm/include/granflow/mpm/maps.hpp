@@ -36,8 +36,8 @@ class TerrainMaps {
 
   // The maps of the final frame, in dir/maps/: deposit_thickness, max_speed, max_depth and the
   // terrain itself, as .asc (a .prj beside each where the terrain has a coordinate system) and,
-  // with GDAL, .tif; aligned with the terrain raster (its corner, cell size and cell count),
-  // NODATA outside the grid's footprint.
+  // with GDAL, .tif; aligned with the terrain raster (its corner; its cell size and count unless
+  // output.map_cell joins its cells), NODATA outside the grid's footprint.
   void write_maps(const std::string& dir, const Frame& final_frame) const;
   // dir/deposit.csv: t, t_flow [s], area [m^2], volume [m^3], extent [m].
   void write_deposit_csv(const std::string& dir) const;
@@ -45,11 +45,16 @@ class TerrainMaps {
   const MapsState& state() const { return st_; }
   // A checkpoint's state; refused (std::runtime_error) when its maps do not fit this set-up.
   void restore(const MapsState& s);
-  // Window cells [row0, row1] x [col0, col1] of the terrain raster (row 0 the northern).
+  // Window cells [row0, row1] x [col0, col1] of the map (row 0 the northern); the map's cells are
+  // blocks of block() x block() terrain raster cells (output.map_cell), from its south-west corner.
   long row0 = 0, row1 = -1, col0 = 0, col1 = -1;
+  long block() const { return block_; }
 
  private:
   long cell_of(double x, double z) const;  // window index of a plan position (clamped)
+  double terrain_mean(long row, long col) const;  // mean elevation of a map cell's raster cells
+  long block_ = 1, ncols_ = 0, nrows_ = 0;
+  double cellsize_ = 0;
   bool active_ = false;
   const SceneSetup* su_ = nullptr;
   double east0_ = 0, north0_ = 0;  // terrain.origin's easting and northing

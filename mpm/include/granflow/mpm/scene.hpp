@@ -141,6 +141,8 @@ struct OutputSpec {
   std::vector<std::string> fields;
   // 3D terrain runs: the plan direction (x, z) of the deposit's extent in deposit.csv.
   std::vector<double> deposit_direction = {1.0, 0.0};
+  // 3D terrain runs: the maps' cell size [m], a whole multiple of the raster's; 0: the raster's.
+  double map_cell = 0;
 };
 
 // The point arrays a VTU frame may carry (output.fields), in the order they are written.
