@@ -270,6 +270,11 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
   double last_good_t = 0;
   auto full_frame = [&]() -> const Frame& {
     runner.frame(full, true);
+    if (full.body.empty()) {  // ids per point: the set-up's, the same in every frame
+      full.body = su.point_body;
+      full.material.assign(su.point_material.begin(), su.point_material.end());
+      full.material.resize(su.point_body.size(), 0);
+    }
     return full;
   };
   // The measures of a sample (run-out, energies: a pass over every particle) and the copy of
