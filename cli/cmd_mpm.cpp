@@ -264,6 +264,20 @@ void run_mpm(const MpmOptions& o) {
     else
       std::fprintf(stderr, "  terrain %s: no-slip\n", sc.terrain->raster->file.c_str());
   }
+  if (sc.material_count() > 1) {  // per material: its set, points and mass
+    std::vector<long> points(sc.material_count(), 0);
+    std::vector<double> mass(sc.material_count(), 0.0);
+    for (long i = 0; i < su.particles.n; ++i) {
+      ++points[su.point_material[i]];
+      mass[su.point_material[i]] += su.particles.m[i];
+    }
+    for (int m = 0; m < sc.material_count(); ++m) {
+      const mpm::Material& mm = sc.material_at(m);
+      std::fprintf(stderr, "  material %s: %s, rho_p %g, e0 %g, phi_c %.4g deg; %ld points, mass %.6g kg%s\n",
+                   mm.label.c_str(), mm.name.c_str(), mm.params.c.rho_p, mm.e0, mm.params.f.phi_c * 180 / M_PI,
+                   points[m], mass[m], sc.dim == 2 ? " per m" : "");
+    }
+  }
   for (size_t b = 0; b < sc.bodies.size() && b < su.seeded_volume.size(); ++b)
     if (sc.bodies[b].is_release())  // seeded on the lattice against the surfaces' volume
       std::fprintf(stderr, "  body[%zu]: seeded volume %.6g m^3, between the surfaces %.6g m^3 (%+.2f %%)\n", b,
