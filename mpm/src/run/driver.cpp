@@ -156,7 +156,8 @@ ConsolidationCheck check_consolidation(const Frame& fr, const SceneSetup& su) {
     if (fr.x[i] < xa || fr.x[i] > xb) continue;
     const long k = std::clamp(static_cast<long>((top - fr.x[n + i]) / sc.h), 0L, nb - 1);
     sum[k] += -fr.syy[i];
-    rho[k] += sc.material.params.c.rho_p / (1 + fr.e[i]);
+    const int m = su.point_material.empty() ? 0 : su.point_material[i];
+    rho[k] += sc.material_at(m).params.c.rho_p / (1 + fr.e[i]);
     cnt[k] += 1;
   }
   double load = 0;  // rho g integrated over the bins above

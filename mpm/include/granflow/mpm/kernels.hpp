@@ -60,12 +60,13 @@ struct MemberValues {
 template <class Params, class S>
 struct Members {
   int count = 1;
+  int materials = 1;   // entries of values per member (in count's padding: kernel parameters keep their size
+                       // but for the pointer `material`)
   long particles = 0;  // per member (P)
   long nodes = 0;      // per member (G)
   long mask_stride = 0;
   const MemberValues<Params, S>* values = nullptr;  // count * materials entries
   const std::uint32_t* dead = nullptr;  // non-zero: the member failed earlier; its points are skipped
-  int materials = 1;
   const std::uint8_t* material = nullptr;  // per point (slot): material index; null with one material
   GF_HDI int of_particle(long p) const { return static_cast<int>(p / particles); }
   // Entry of `values` for point p of member k, and the entry of member k's grid update.
