@@ -263,7 +263,7 @@ SceneSetup make_setup(const Scene& sc) {
            "differs from material[0].model: every material of a scene has the same model");
     rho0s[m] = mm.params.c.rho_p / (1.0 + mm.e0);
   }
-  std::vector<double> pos_body;  // body of each point, as pos
+  std::vector<int> pos_body;  // body of each point, as pos
   std::vector<std::vector<double>> pos(D);
   double points_wanted = 0;
   const double ram = physical_memory();
@@ -277,7 +277,7 @@ SceneSetup make_setup(const Scene& sc) {
       const long before = static_cast<long>(pos[0].size());
       double geometric = 0;
       seed_release(sc, body, key, l, pos, geometric, points_wanted);
-      pos_body.resize(pos[0].size(), double(b));
+      pos_body.resize(pos[0].size(), static_cast<int>(b));
       su.seeded_volume.push_back(double(static_cast<long>(pos[0].size()) - before) * std::pow(l, D));
       su.geometric_volume.push_back(geometric);
       continue;
@@ -325,7 +325,7 @@ SceneSetup make_setup(const Scene& sc) {
       if (body.is_polygon() && !inside_polygon(body.poly_x, body.poly_y, x[0], x[1])) continue;
       for (int d = 0; d < D; ++d) pos[d].push_back(x[d]);
     }
-    pos_body.resize(pos[0].size(), double(b));
+    pos_body.resize(pos[0].size(), static_cast<int>(b));
     su.seeded_volume.push_back(double(static_cast<long>(pos[0].size()) - before) * std::pow(l, D));
     double geometric = 1;
     if (body.is_polygon()) {
@@ -381,8 +381,7 @@ SceneSetup make_setup(const Scene& sc) {
   hp.sigf.assign(6 * n, 0.0);
   hp.L.assign(D * D * n, 0.0);
   hp.eps.assign(n, 0.0);
-  su.point_body.resize(n);
-  for (long i = 0; i < n; ++i) su.point_body[i] = static_cast<int>(pos_body[i]);
+  su.point_body = std::move(pos_body);
   if (nmat > 1) {
     su.point_material.resize(n);
     for (long i = 0; i < n; ++i) su.point_material[i] = static_cast<std::uint8_t>(sc.bodies[su.point_body[i]].material);
