@@ -170,7 +170,7 @@ class CudaRunner final : public Runner {
   TerrainNode* terrain_ = nullptr;  // frictional terrain's nodes (terrain_kernel; none: no launch)
   long n_terrain_ = 0;
   double terrain_mu_ = 0;
-  std::vector<MV> values_;                 // ensembles: per-member values (host copy)
+  std::vector<MV> values_;                 // ensembles: per member and material (host copy)
   // Several materials: per slot, the point's material index (sp_.members.material), sorted
   // with the points; the host copy in the original order.
   std::uint8_t* material_ = nullptr;

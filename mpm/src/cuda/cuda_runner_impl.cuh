@@ -119,8 +119,9 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const Sce
     // per-member values, retired flags and first bad particles (sp_.members, SpanControl)
     const int nm = su.members;
     values_ = detail::member_values<D, S, Model>(su);
-    values_dev_ = device_alloc<MV>(nm);
-    check(cudaMemcpy(values_dev_, values_.data(), sizeof(MV) * nm, cudaMemcpyHostToDevice), "member values");
+    values_dev_ = device_alloc<MV>(values_.size());  // members x materials entries
+    check(cudaMemcpy(values_dev_, values_.data(), sizeof(MV) * values_.size(), cudaMemcpyHostToDevice),
+          "member values");
     dead_host_.assign(nm, 0u);
     dead_ = device_alloc<std::uint32_t>(nm);
     check(cudaMemset(dead_, 0, sizeof(std::uint32_t) * nm), "member flags");
