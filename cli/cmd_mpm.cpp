@@ -57,6 +57,8 @@ std::uint64_t scene_hash(const mpm::Scene& sc) {
   if (sc.terrain && sc.terrain->raster) h = mpm::fnv1a(bytes(sc.terrain->raster->file), h);
   if (sc.base && !sc.base->file.empty()) h = mpm::fnv1a(bytes(sc.base->file), h);
   std::uint64_t hash = mpm::fnv1a(io::format_parameter_set(io::load_parameter_set(sc.material.name)), h);
+  for (int i = 1; i < sc.material_count(); ++i)
+    hash = mpm::fnv1a(io::format_parameter_set(io::load_parameter_set(sc.material_at(i).name)), hash);
   for (const auto& a : sc.overrides) hash = mpm::fnv1a("--set " + a, hash);
   return hash;
 }
@@ -74,18 +76,39 @@ std::string shell_word(const std::string& w) {
 std::string override_args(const mpm::SceneOverrides& ov) {
   std::string s;
   if (!ov.params.empty()) s += " --params " + shell_word(ov.params);
+  for (const auto& a : ov.material_params) s += " --params " + shell_word(a);
   for (const auto& a : ov.sets) s += " --set " + shell_word(a);
   return s;
 }
 
 void add_override_options(CLI::App* cmd, mpm::SceneOverrides& ov) {
-  cmd->add_option("--params", ov.params,
-                  "parameter set instead of the scene's material.parameters: a name under data/params or a TOML "
-                  "file (as granflow element --params)");
+  // NAME=SET (a [[material]] name, then the set) goes to material_params; a plain SET to params, once
+  cmd->add_option_function<std::vector<std::string>>(
+         "--params",
+         [&ov](const std::vector<std::string>& given) {
+           for (const std::string& v : given) {
+             const auto eq = v.find('=');
+             const bool named = eq != std::string::npos && eq > 0 &&
+                                v.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") == eq;
+             if (named) {
+               ov.material_params.push_back(v);
+             } else {
+               if (!ov.params.empty())
+                 throw io::InputError("--params '" + v + "': a second set for the scene's material (first: '" +
+                                      ov.params + "'); name materials with NAME=SET");
+               ov.params = v;
+             }
+           }
+         },
+         "parameter set instead of the scene's material.parameters: a name under data/params or a TOML "
+         "file (as granflow element --params); NAME=SET for the [[material]] named NAME (repeatable)")
+      ->allow_extra_args(false);
   cmd->add_option("--set", ov.sets,
                   "override one value, KEY=VALUE (repeatable, applied in order). KEY in a parameter set's table "
                   "(frictional., collisional., initial., numerics.) changes the material's set, e.g. "
-                  "frictional.phi_c_deg=30; any other KEY is a scene key, checked as in the file, e.g. "
+                  "frictional.phi_c_deg=30 (NAME:frictional.phi_c_deg=30: of the [[material]] named NAME, "
+                  "required with two or more; NAME:e0=0.8: a key of its table); any other KEY is a scene key, "
+                  "checked as in the file, e.g. "
                   "grid.h=0.0025, time.dt=5e-5, time.adaptive=true, material.model=frictional, "
                   "solver.precision=fp32, stage[1].duration=0.5 ([i]: entry i of an array of tables). VALUE is "
                   "a TOML value; a bare word is a string")
@@ -240,6 +263,20 @@ void run_mpm(const MpmOptions& o) {
                    sc.terrain->raster->file.c_str(), *sc.terrain->mu, su.terrain.size());
     else
       std::fprintf(stderr, "  terrain %s: no-slip\n", sc.terrain->raster->file.c_str());
+  }
+  if (sc.material_count() > 1) {  // per material: its set, points and mass
+    std::vector<long> points(sc.material_count(), 0);
+    std::vector<double> mass(sc.material_count(), 0.0);
+    for (long i = 0; i < su.particles.n; ++i) {
+      ++points[su.point_material[i]];
+      mass[su.point_material[i]] += su.particles.m[i];
+    }
+    for (int m = 0; m < sc.material_count(); ++m) {
+      const mpm::Material& mm = sc.material_at(m);
+      std::fprintf(stderr, "  material %s: %s, rho_p %g, e0 %g, phi_c %.4g deg; %ld points, mass %.6g kg%s\n",
+                   mm.label.c_str(), mm.name.c_str(), mm.params.c.rho_p, mm.e0, mm.params.f.phi_c * 180 / M_PI,
+                   points[m], mass[m], sc.dim == 2 ? " per m" : "");
+    }
   }
   for (size_t b = 0; b < sc.bodies.size() && b < su.seeded_volume.size(); ++b)
     if (sc.bodies[b].is_release())  // seeded on the lattice against the surfaces' volume

@@ -50,6 +50,7 @@ class SceneExperiment final : public Experiment {
   mpm::SceneOverrides fixed;
   std::string backend = "auto";
   std::vector<SceneCurve> measured;  // one per curve
+  int material = 0;                  // the scene's material the calibrated set replaces (material = "NAME")
   bool progress = true;
 
   std::size_t index = 0;  // of its [[experiments]] table: names it to the other ranks
@@ -69,12 +70,14 @@ class SceneExperiment final : public Experiment {
     std::vector<size_t> member_of_set(sets.size(), SIZE_MAX);
     for (size_t i = 0; i < sets.size(); ++i) {
       mpm::Scene sc = base;
-      const double rho_p = sc.material.params.c.rho_p;  // the scene's grain density stays
-      if (sets[i].frictional) sc.material.params.f = *sets[i].frictional;
-      if (sets[i].collisional) sc.material.params.c = *sets[i].collisional;
-      sc.material.params.c.rho_p = rho_p;
+      mpm::Material& mat = sc.material_at(material);
+      const double rho_p = mat.params.c.rho_p;  // the scene's grain density stays
+      if (sets[i].frictional) mat.params.f = *sets[i].frictional;
+      if (sets[i].collisional) mat.params.c = *sets[i].collisional;
+      mat.params.c.rho_p = rho_p;
       try {
-        io::check_initial_void_ratio(sets[i], sc.material.e0, "the scene's material.e0");
+        io::check_initial_void_ratio(sets[i], mat.e0, mat.label.empty() ? "the scene's material.e0"
+                                                                      : "the e0 of the scene's material " + mat.label);
         ms.push_back(mpm::make_setup(sc));
         member_of_set[i] = ms.size() - 1;
       } catch (const std::exception& e) {
@@ -298,6 +301,21 @@ std::shared_ptr<const Experiment> make_scene_experiment(io::TomlTable& t, const 
     sc = mpm::load_scene(scene, e->fixed);
   } catch (const io::InputError& err) {
     t.fail("scene", err.what());
+  }
+  // Scenes of several materials: the one the calibrated set replaces (the others keep theirs,
+  // `set` may change them with NAME:KEY).
+  if (t.has("material")) {
+    const std::string name = t.string("material");
+    e->material = sc.material_index(name);
+    if (sc.material.label.empty()) t.fail("material", "the scene has one unnamed [material]: leave material out");
+    if (e->material < 0) {
+      std::string list;
+      for (int i = 0; i < sc.material_count(); ++i) list += (list.empty() ? "" : ", ") + sc.material_at(i).label;
+      t.fail("material", "the scene has no [[material]] named '" + name + "' (its materials: " + list + ")");
+    }
+  } else if (sc.material_count() > 1) {
+    t.fail_missing("material", "the [[material]] the calibrated set replaces: the scene has " +
+                                   std::to_string(sc.material_count()) + " materials");
   }
   e->abscissa_quantity = "time";
   if (auto s = t.optional_table("surface")) {

@@ -8,12 +8,16 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <random>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include <granflow/io/input_error.hpp>
+#include <granflow/mpm/ensemble.hpp>
 #include <granflow/mpm/ensemble_design.hpp>
 #include <granflow/mpm/scene_file.hpp>
 
@@ -24,6 +28,14 @@ namespace {
 
 const std::string kRepo = std::string(GRANFLOW_SOURCE_DIR) + "/";
 constexpr double kDegree = 180 / 3.14159265358979323846;
+namespace fs = std::filesystem;
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
 
 // Line numbers in the messages below refer to this text.
 const std::string kLhs =
@@ -400,7 +412,11 @@ TEST(EnsembleDesign, RefusesKeysThatAreNotSetKeys) {
                           "stage[].duration", "stage[1234567].duration", "frictional.phi_c_deg=30", "wall[0]mu", "a/b"})
     expect_error(edit(kLhs, "\"base.mu\"", std::string("\"") + bad + "\""),
                  {"d.toml:8", "'vary[1].key'", "is not a --set key"});
-  for (const char* good : {"wall[0].mu", "stage[0].gate.lift_speed", "collisional.eps_n", "initial.e0", "grid.h", "x-y.z_2"})
+  for (const char* bad : {":frictional.phi_c_deg", "we ak:frictional.phi_c_deg", "weak:", "a:b:c.d"})
+    expect_error(edit(kLhs, "\"base.mu\"", std::string("\"") + bad + "\""),
+                 {"d.toml:8", "'vary[1].key'", "is not a --set key"});
+  for (const char* good : {"wall[0].mu", "stage[0].gate.lift_speed", "collisional.eps_n", "initial.e0", "grid.h", "x-y.z_2",
+                           "weak:frictional.phi_c_deg", "weak:e0"})
     EXPECT_NO_THROW(parse_design(edit(kLhs, "\"base.mu\"", std::string("\"") + good + "\""), "d.toml")) << good;
 }
 
@@ -426,6 +442,38 @@ TEST(EnsembleDesign, SyntaxErrorsAndMissingFilesNameTheFile) {
   } catch (const io::InputError& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/design.toml"), std::string::npos) << e.what();
   }
+}
+
+// NAME:KEY varies one material of a scene of several; the other keeps its values.
+TEST(EnsembleDesign, MaterialKeysVaryOneMaterial) {
+  const EnsembleDesign d = parse_design("[design]\nmethod = \"list\"\n" +
+                                            vary("weak:frictional.phi_c_deg", "values = [18.0, 22.0]") +
+                                            vary("weak:e0", "values = [0.9, 0.92]"),
+                                        "d.toml");
+  std::string scene = slurp(kRepo + "mpm/scenes/column_collapse_ci.toml");
+  scene = edit(edit(scene, "[material]\n", "[[material]]\nname = \"strong\"\n"),
+               "[[body]]\nmin = [0.0, 0.0]\nmax = [0.20, 0.10]\n",
+               "[[material]]\nname = \"weak\"\nparameters = \"column_collapse\"\nmodel = \"phase_transition\"\n"
+               "[[body]]\nmin = [0.0, 0.0]\nmax = [0.20, 0.04]\nmaterial = \"weak\"\n"
+               "[[body]]\nmin = [0.0, 0.04]\nmax = [0.20, 0.10]\nmaterial = \"strong\"\n");
+  const std::string path = (fs::temp_directory_path() / ("granflow_design_two_" + std::to_string(std::rand()) + ".toml")).string();
+  std::ofstream(path) << scene;
+  std::vector<SceneSetup> ms;
+  for (long m = 0; m < d.members; ++m) {
+    SceneOverrides o;
+    o.sets = member_overrides(d, m);
+    const Scene sc = load_scene(path, o);
+    ASSERT_EQ(sc.material_count(), 2);
+    EXPECT_NEAR(sc.material_at(1).params.f.phi_c * kDegree, d.values[m][0], 1e-12);
+    EXPECT_EQ(sc.material_at(1).e0, d.values[m][1]);
+    EXPECT_EQ(sc.material_at(0).e0, 0.95);  // the file's, for both members
+    EXPECT_NEAR(sc.material_at(0).params.f.phi_c * kDegree, 19.8, 1e-12);
+    ms.push_back(make_setup_for_file(sc));
+  }
+  const SceneSetup su = make_ensemble_setup(ms);
+  EXPECT_EQ(su.member_materials.size(), 4u);  // member after member, two materials each
+  EXPECT_EQ(su.point_material.size(), static_cast<size_t>(su.particles.n));
+  fs::remove(path);
 }
 
 // ---- the shipped examples, applied to the scenes they are written for

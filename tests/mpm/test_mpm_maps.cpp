@@ -298,6 +298,8 @@ TEST(MpmOutputFields, FramesCarryTheListedArraysOnly) {
   f.x = {0, 1, 0, 1};
   f.v = {0, 0, 0, 0};
   for (auto* a : {&f.T, &f.p, &f.q, &f.eps_pd, &f.eta_c, &f.K_col, &f.e, &f.sxx, &f.syy, &f.sxy}) a->assign(2, 1.0);
+  f.material = {0, 1};
+  f.body = {0, 1};
   Scratch s("fields");
   fs::create_directories(s.dir);
   const fs::path all = s.dir / "all.vtu", some = s.dir / "some.vtu";

@@ -267,6 +267,50 @@ TEST(MpmOverrides, ParameterSetKeysGoToTheSetAndOthersToTheScene) {
   EXPECT_EQ(error_of(bare, {}, "column_collapse"), "");
 }
 
+// [[material]] tables: NAME:KEY and --params NAME=SET change one material, others keep theirs.
+TEST(MpmOverrides, NamedMaterialsTakeTheirOwnOverrides) {
+  const std::string two = write("two.toml", edit(edit(kTiny,
+      "[material]\nparameters = \"column_collapse\"\nmodel = \"frictional\"\n",
+      "[[material]]\nname = \"strong\"\nparameters = \"column_collapse\"\nmodel = \"frictional\"\n"
+      "[[material]]\nname = \"weak\"\nparameters = \"column_collapse\"\nmodel = \"frictional\"\ne0 = 0.9\n"),
+      "max = [0.1, 0.1]\n", "max = [0.1, 0.04]\nmaterial = \"weak\"\n[[body]]\nmin = [0.0, 0.04]\nmax = [0.1, 0.1]\n"
+      "material = \"strong\"\n"));
+  SceneOverrides o;
+  o.sets = {"weak:frictional.phi_c_deg=20", "weak:e0=0.92", "strong:frictional.K0=90"};
+  o.material_params = {"strong=flume"};
+  const Scene sc = load_scene(two, o);
+  ASSERT_EQ(sc.material_count(), 2);
+  const Material &strong = sc.material_at(0), &weak = sc.material_at(1);
+  EXPECT_EQ(strong.label, "strong");
+  EXPECT_EQ(weak.label, "weak");
+  const io::ParameterSet flume = io::load_parameter_set("flume"), cc = io::load_parameter_set("column_collapse");
+  EXPECT_EQ(strong.name, flume.file);
+  EXPECT_DOUBLE_EQ(strong.params.f.phi_c, flume.frictional->phi_c);
+  EXPECT_DOUBLE_EQ(strong.params.f.K0, 90);
+  EXPECT_EQ(weak.name, cc.file);
+  EXPECT_DOUBLE_EQ(weak.params.f.phi_c, 20 * M_PI / 180);
+  EXPECT_DOUBLE_EQ(weak.params.f.K0, cc.frictional->K0);
+  EXPECT_DOUBLE_EQ(weak.e0, 0.92);
+  ASSERT_EQ(sc.bodies.size(), 2u);
+  EXPECT_EQ(sc.bodies[0].material, 1);
+  EXPECT_EQ(sc.bodies[1].material, 0);
+  // the set-up gives each point its body's material, density and void ratio
+  const SceneSetup su = make_setup_for_file(sc);
+  ASSERT_EQ(su.point_material.size(), static_cast<size_t>(su.particles.n));
+  for (long i = 0; i < su.particles.n; ++i) {
+    const int m = su.point_material[i];
+    EXPECT_EQ(m, sc.bodies[su.point_body[i]].material);
+    EXPECT_DOUBLE_EQ(su.particles.e[i], sc.material_at(m).e0);
+  }
+  // one [[material]] table: unqualified keys and --params go to it
+  const std::string one = write("one.toml", edit(kTiny, "[material]\n", "[[material]]\nname = \"sand\"\n"));
+  const Scene sc1 = load(one, {"frictional.K0=91", "sand:e0=0.93"}, "flume");
+  EXPECT_EQ(sc1.material_count(), 1);
+  EXPECT_DOUBLE_EQ(sc1.material.params.f.K0, 91);
+  EXPECT_DOUBLE_EQ(sc1.material.e0, 0.93);
+  EXPECT_TRUE(make_setup_for_file(sc1).point_material.empty());  // one material: today's kernels
+}
+
 // Bad overrides: one message naming the --set (and the scene file where the key is a scene key)
 // and saying what is allowed.
 TEST(MpmOverrides, BadOverridesAreRefusedNamingTheSet) {

@@ -152,6 +152,15 @@ const std::string kSceneJob =
     "backend = \"cpu\"\nprogress = false\n"                                            // 13-14
     "[experiments.front]\ndata = \"front.csv\"\n";                                     // 15-16
 
+// kScene with two materials (lines 10-17) and two bodies (18-25), the wall from line 26 on.
+const std::string kTwoMaterials = edit(edit(kScene,
+    "[material]\nparameters = \"column_collapse\"\nmodel = \"frictional\"\n",
+    "[[material]]\nname = \"strong\"\nparameters = \"column_collapse\"\nmodel = \"frictional\"\n"    // 10-13
+    "[[material]]\nname = \"weak\"\nparameters = \"column_collapse\"\nmodel = \"frictional\"\n"),    // 14-17
+    "[[body]]\nmin = [0.0, 0.0]\nmax = [0.1, 0.06]\n",
+    "[[body]]\nmin = [0.0, 0.0]\nmax = [0.1, 0.03]\nmaterial = \"weak\"\n"                                // 18-21
+    "[[body]]\nmin = [0.0, 0.03]\nmax = [0.1, 0.06]\nmaterial = \"strong\"\n");                          // 22-25
+
 // Shorthands.
 std::string P(const std::string& from, const std::string& to) { return edit(kParams, from, to); }
 std::string T(const std::string& from, const std::string& to) { return edit(kTest, from, to); }
@@ -170,6 +179,7 @@ std::vector<std::string> mpm_with(std::vector<std::string> extra) {
   a.insert(a.end(), extra.begin(), extra.end());
   return a;
 }
+std::string M2(const std::string& from, const std::string& to) { return edit(kTwoMaterials, from, to); }
 const std::vector<std::string> kCalForce = {"calibrate", "job.toml", "--out", "fit", "--no-plot", "--quiet", "--force"};
 const std::vector<std::string> kMpmForce = {"mpm", "scene.toml", "--out", "o", "--no-png", "--quiet", "--force"};
 
@@ -395,6 +405,18 @@ std::vector<Case> all_cases() {
       {"mpm_set_dt_above_stability_limit", {}, mpm_with({"--set", "time.dt=1e-2"}), kInput, {"scene.toml: --set 'time.dt=1e-2': 'time.dt'", "above the stability limit"}},
       {"mpm_set_parameter_out_of_range", {}, mpm_with({"--set", "frictional.phi_c_deg=95"}), kInput, {"--set 'frictional.phi_c_deg=95': 'frictional.phi_c_deg': must be in (0, 90), got 95"}},
       {"mpm_params_unknown", {}, mpm_with({"--params", "column_colapse"}), kInput, {"--params 'column_colapse'", "no parameter set of that name", "column_collapse"}},
+      // ---- several materials ([[material]], body.material, NAME= and NAME: on the command line) ----
+      {"mpm_materials_mixed_models", {{"scene.toml", M2("name = \"weak\"\nparameters = \"column_collapse\"\nmodel = \"frictional\"", "name = \"weak\"\nparameters = \"column_collapse\"\nmodel = \"phase_transition\"")}}, kMpm, kInput, {"scene.toml:17", "'material[1].model'", "\"phase_transition\" differs from material[0].model (\"frictional\")", "same model"}},
+      {"mpm_material_unknown_name", {{"scene.toml", M2("material = \"weak\"", "material = \"wek\"")}}, kMpm, kInput, {"scene.toml:21", "'body[0].material'", "no [[material]] is named 'wek'", "strong, weak"}},
+      {"mpm_material_duplicate_name", {{"scene.toml", M2("name = \"weak\"", "name = \"strong\"")}}, kMpm, kInput, {"scene.toml:15", "'material[1].name'", "'strong' names material[0] too"}},
+      {"mpm_material_body_without_one", {{"scene.toml", M2("material = \"weak\"\n", "")}}, kMpm, kInput, {"'body[0].material'", "the scene has 2 materials"}},
+      {"mpm_material_named_in_single_material_scene", {{"scene.toml", S("max = [0.1, 0.06]", "max = [0.1, 0.06]\nmaterial = \"sand\"")}}, kMpm, kInput, {"scene.toml:16", "'body[0].material'", "one unnamed [material]"}},
+      {"mpm_set_unqualified_with_two_materials", {{"scene.toml", kTwoMaterials}}, mpm_with({"--set", "frictional.phi_c_deg=30"}), kInput, {"--set 'frictional.phi_c_deg=30': the scene has 2 materials (strong, weak)", "--set strong:frictional.phi_c_deg=30"}},
+      {"mpm_set_unknown_material", {{"scene.toml", kTwoMaterials}}, mpm_with({"--set", "wek:frictional.phi_c_deg=30"}), kInput, {"--set 'wek:frictional.phi_c_deg=30'", "no [[material]] named 'wek' (its materials: strong, weak)"}},
+      {"mpm_set_named_parameter_out_of_range", {{"scene.toml", kTwoMaterials}}, mpm_with({"--set", "weak:frictional.phi_c_deg=95"}), kInput, {"--set (material weak) 'frictional.phi_c_deg=95'", "must be in (0, 90), got 95"}},
+      {"mpm_params_unqualified_with_two_materials", {{"scene.toml", kTwoMaterials}}, mpm_with({"--params", "flume"}), kInput, {"--params 'flume': the scene has 2 materials (strong, weak)", "--params strong=flume"}},
+      {"mpm_params_unknown_material", {{"scene.toml", kTwoMaterials}}, mpm_with({"--params", "wek=flume"}), kInput, {"--params 'wek=flume'", "no [[material]] named 'wek'"}},
+      {"mpm_materials_in_3d", {{"t3.toml", edit(edit(edit(kTerrainScene, "[material]\n", "[[material]]\nname = \"a\"\n"), "[terrain]", "[[material]]\nname = \"b\"\nparameters = \"column_collapse\"\nmodel = \"frictional\"\n[terrain]"), "max = [0.06, 0.08, 0.06]\n", "max = [0.06, 0.08, 0.06]\nmaterial = \"a\"\n")}, {"dem.asc", dem()}}, kT3, kInput, {"'material'", "several materials are compiled for 2D scenes"}},
       // ---- ensemble design files (granflow ensemble SCENE DESIGN) ----------------------------
       {"ens_unknown_vary_key", {{"d.toml", design("frictional.phi_cdeg", "range = [18.0, 22.0]")}}, kEns, kInput, {"d.toml:4", "vary key 'frictional.phi_cdeg'", "unknown key 'frictional.phi_cdeg'", "phi_c_deg"}},
       {"ens_empty_range", {{"d.toml", design("frictional.phi_c_deg", "range = [22.0, 18.0]")}}, kEns, kInput, {"d.toml:6", "range"}},
@@ -403,6 +425,8 @@ std::vector<Case> all_cases() {
       {"ens_too_large_for_memory", {{"d.toml", edit(design("frictional.phi_c_deg", "range = [18.0, 22.0]"), "members = 4", "members = 100000")}}, ens_with({"--set", "grid.h=0.001", "--set", "time.dt=1e-5"}), kInput, {"d.toml: 100000 members need", "at most", "members fit"}},
       {"ens_members_differ_in_grid", {{"d.toml", "[design]\nmethod = \"list\"\n[[vary]]\nkey = \"grid.h\"\nvalues = [0.02, 0.025]\n"}}, kEns, kInput, {"d.toml: grid: member 1 differs from member 0 in the grid", "members may differ in"}},
       {"ens_range_typo", {{"d.toml", design("frictional.phi_c_deg", "rnage = [18.0, 22.0]")}}, kEns, kInput, {"d.toml:4", "'vary[0].range': required key is missing", "'vary[0].rnage'", "a typo?"}},
+      {"calib_scene_two_materials_unnamed", {{"job.toml", kSceneJob}, {"scene.toml", kTwoMaterials}, {"front.csv", "t,x\n0,0.1\n0.001,0.1\n"}}, kCal, kInput, {"job.toml", "'experiments[0].material'", "the scene has 2 materials"}},
+      {"calib_scene_unknown_material", {{"job.toml", edit(kSceneJob, "progress = false\n", "progress = false\nmaterial = \"wek\"\n")}, {"scene.toml", kTwoMaterials}, {"front.csv", "t,x\n0,0.1\n0.001,0.1\n"}}, kCal, kInput, {"job.toml:15", "'experiments[0].material'", "no [[material]] named 'wek' (its materials: strong, weak)"}},
       {"calib_scene_front_past_end", {{"job.toml", kSceneJob}, {"front.csv", "t,x\n0,0.1\n0.001,0.1\n0.003,0.1\n"}}, kCal, kInput, {"front.csv:4", "t = 0.003 s", "past the end of the run", "0.002 s after the release"}},
       {"ens_backend_cuda_unavailable", {{"d.toml", design("frictional.phi_c_deg", "range = [18.0, 22.0]")}}, ens_with({"--backend", "cuda"}), kInput, {"--backend cuda: ", "; use --backend cpu"}},
       {"mpm_backend_cuda_unavailable", {}, mpm_with({"--backend", "cuda"}), kInput, {"--backend cuda: ", "; use --backend cpu"}},

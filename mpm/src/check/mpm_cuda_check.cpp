@@ -15,6 +15,8 @@
 // others as their single runs. --ensembles runs these cases only; --short shortens the collapse.
 // Terrain (3D builds, GRANFLOW_MPM_CUDA_3D): a slab sliding with Coulomb friction down a planar
 // raster dipping 30 deg towards 30 deg off x (the terrain pass, terrain_kernel), same tolerances.
+// Several materials: the column as two layers of different sands, GPU against the CPU twin;
+// --materials runs these cases only.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -373,6 +375,52 @@ bool terrain_case(const char* cuda, bool short_run, double tol) {
   return ok;
 }
 
+// ---- several materials -------------------------------------------------------------------------
+// The CI column as two layers (issue 34): the lower 4 cm a looser, weaker sand (e0 + 0.03,
+// phi_c - 4 deg, rho_p 2500), the rest as before; the GPU (the kMembers kernels with a material
+// index per slot, sorted with the points) against the CPU twin, same tolerances.
+bool materials_case(ModelKind model, ShapeKind shape, const char* cuda, bool short_run, double tol) {
+  Scene sc = small_column_scene(model, shape);
+  sc.name += ", two layers";
+  sc.material.label = "upper";
+  Material lower = sc.material;
+  lower.label = "lower";
+  lower.e0 += 0.03;
+  lower.params.f.phi_c -= 4 * M_PI / 180;
+  lower.params.c.rho_p = 2500;
+  sc.other_materials = {lower};
+  Body b0 = sc.bodies[0], b1 = sc.bodies[0];
+  b0.box_max[1] = 0.04;
+  b0.material = 1;
+  b1.box_min[1] = 0.04;
+  sc.bodies = {b0, b1};
+  if (short_run) sc.stages.back().duration = 0.1;
+  const SceneSetup su = make_setup(sc);
+  RunOptions opt;
+  opt.progress = false;
+  auto cpu = make_cpu_runner(su);
+  auto gpu = make_cuda_runner(su, cuda_options(cuda));
+  const RunSummary a = run(su, *cpu, opt);
+  const RunSummary b = run(su, *gpu, opt);
+  HostParticles ha, hb;
+  cpu->download(ha);
+  gpu->download(hb);
+  long far = 0;
+  for (long i = 0; i < ha.n; ++i)
+    if (std::hypot(ha.x[i] - hb.x[i], ha.x[ha.n + i] - hb.x[ha.n + i]) > 0.25 * sc.h) ++far;
+  const double rel = std::fabs(b.final.runout - a.final.runout) / a.final.runout;
+  const double relh = std::fabs(b.final.height - a.final.height) / a.final.height;
+  const bool ok = a.ok && b.ok && rel <= tol && relh <= tol && far <= ha.n / 10;
+  std::printf("%-55s %-9s %s cpu run-out %.5f m height %.5f m (%.2f s) | gpu run-out %.5f m height %.5f m (%.2f s, "
+              "%s) | rel. diff %.2e / %.2e | %ld of %ld points > h/4 apart %s\n",
+              sc.name.c_str(), shape == ShapeKind::Linear ? "linear" : "quadratic", cuda, a.final.runout,
+              a.final.height, a.wall_s, b.final.runout, b.final.height, b.wall_s, b.device.c_str(), rel, relh, far,
+              ha.n, ok ? "OK" : "FAIL");
+  if (!a.ok) std::printf("  cpu: %s\n", a.message.c_str());
+  if (!b.ok) std::printf("  gpu: %s\n", b.message.c_str());
+  return ok;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -403,11 +451,19 @@ int main(int argc, char** argv) {
                         {ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, false, "", true},
                         {ModelKind::Frictional, ShapeKind::Linear, false, "graphs off", true}};
   // --short: 0.1 s of collapse; --ensembles: the ensemble cases only (e.g. under compute-sanitizer)
-  bool short_run = false, ensembles_only = false;
+  // --materials: the cases of several materials only
+  bool short_run = false, ensembles_only = false, materials_only = false;
   for (int i = 1; i < argc; ++i) {
     short_run = short_run || std::strcmp(argv[i], "--short") == 0;
     ensembles_only = ensembles_only || std::strcmp(argv[i], "--ensembles") == 0;
+    materials_only = materials_only || std::strcmp(argv[i], "--materials") == 0;
   }
+  if (!ensembles_only) {
+    fails += materials_case(ModelKind::PhaseTransition, ShapeKind::Linear, "", short_run, tol) ? 0 : 1;
+    fails += materials_case(ModelKind::Frictional, ShapeKind::QuadraticBSpline, "sort 1, graphs off", short_run, tol) ? 0 : 1;
+    fails += materials_case(ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, "sort 7, g2p-split on", short_run, tol) ? 0 : 1;
+  }
+  if (materials_only) return fails == 0 ? 0 : 1;
   for (const Case& c : cases) {
     if (ensembles_only) break;
     const CudaOptions co = cuda_options(c.cuda);

@@ -40,9 +40,11 @@ class CpuRunner final : public Runner {
     if constexpr (kMembers) {
       values_ = detail::member_values<D, S, Model>(su);
       dead_.assign(su.members, 0u);
+      material_ = su.point_material;  // the twin keeps points in their original order
       sp_.members.values = values_.data();
       sp_.members.dead = dead_.data();
-      msp_.assign(su.members, sp_);
+      sp_.members.material = material_.empty() ? nullptr : material_.data();
+      msp_.assign(values_.size(), sp_);
     }
     order_.resize(n_);
     key_.resize(n_);
@@ -77,9 +79,9 @@ class CpuRunner final : public Runner {
     sp_.dt = S(dt);
     sp_.want_dt_limit = want_dt_limit ? 1 : 0;
     if constexpr (kMembers)
-      for (int k = 0; k < sp_.members.count; ++k) {
-        msp_[k] = sp_;
-        apply_member(msp_[k], k);
+      for (size_t i = 0; i < msp_.size(); ++i) {
+        msp_[i] = sp_;
+        apply_member(msp_[i], static_cast<int>(i));
       }
     const ParticleView<S> pv{part_.data(), n_};
     const GridView<S> gv{grid_.data(), nn_, masks_[stage_].data()};
@@ -106,7 +108,7 @@ class CpuRunner final : public Runner {
         lim[p] = std::numeric_limits<S>::max();
         const int k = member_of(p);
         if (skipped(k)) continue;
-        st[p] = g2p_particle<D, S, Model, Shape>(pv, member_view(gv, k), p, params_of(k), &lim[p], &inf[p]);
+        st[p] = g2p_particle<D, S, Model, Shape>(pv, member_view(gv, k), p, params_of(k, p), &lim[p], &inf[p]);
         any |= st[p];
       }
     } else {
@@ -117,7 +119,7 @@ class CpuRunner final : public Runner {
         lim[p] = std::numeric_limits<S>::max();
         const int k = member_of(p);
         if (skipped(k)) continue;
-        st[p] = g2p_kinematics<D, S, Model, Shape>(pv, member_view(gv, k), p, params_of(k));
+        st[p] = g2p_kinematics<D, S, Model, Shape>(pv, member_view(gv, k), p, params_of(k, p));
         any |= st[p];
       }
       if (!any || kMembers) {  // a member whose kinematics failed does not stop the others
@@ -129,7 +131,7 @@ class CpuRunner final : public Runner {
           S sv = S(0), st_ = S(0);
           for (long j = bin_start_[b]; j < bin_start_[b + 1]; ++j) {
             S V, tr;
-            volumetric_rate<D, S, Model>(pv, order_[j], params_of(member_of(order_[j])), V, tr);
+            volumetric_rate<D, S, Model>(pv, order_[j], params_of(member_of(order_[j]), order_[j]), V, tr);
             sv += V;
             st_ += V * tr;
           }
@@ -139,7 +141,7 @@ class CpuRunner final : public Runner {
         for (long p = 0; p < n_; ++p) {
           const int k = member_of(p);
           if (skipped(k) || st[p]) continue;
-          st[p] = constitutive_particle<D, S, Model>(pv, p, params_of(k), tb[key_[p]], &lim[p], &inf[p]);
+          st[p] = constitutive_particle<D, S, Model>(pv, p, params_of(k, p), tb[key_[p]], &lim[p], &inf[p]);
           any |= st[p];
         }
       }
@@ -236,8 +238,12 @@ class CpuRunner final : public Runner {
   bool skipped(int k) const {
     if constexpr (kMembers) return dead_[k] != 0; else return false;
   }
-  const SP& params_of(int k) const {
-    if constexpr (kMembers) return msp_[k]; else return sp_;
+  // The step parameters of point p of member k, and of member k's grid update.
+  const SP& params_of(int k, long p) const {
+    if constexpr (kMembers) return msp_[sp_.members.value_index(k, p)]; else return sp_;
+  }
+  const SP& node_params(int k) const {
+    if constexpr (kMembers) return msp_[sp_.members.node_values(k)]; else return sp_;
   }
   GridView<S> member_view(const GridView<S>& gv, int k) const {
     if constexpr (kMembers) return member_grid(gv, sp_.members, k); else return gv;
@@ -249,7 +255,7 @@ class CpuRunner final : public Runner {
 #pragma omp parallel for schedule(static)
     for (long I = 0; I < nn; ++I) {
       const int k = static_cast<int>(I / nm);
-      grid_update_node<D, S, Model, kBoundary, kContacts>(member_view(gv, k), I - k * nm, params_of(k));
+      grid_update_node<D, S, Model, kBoundary, kContacts>(member_view(gv, k), I - k * nm, node_params(k));
     }
   }
 
@@ -294,7 +300,6 @@ class CpuRunner final : public Runner {
     for (long I = 0; I < nn; ++I) {
       int Im[D];
       const int m = static_cast<int>(I / nm);
-      const SP& spm = params_of(m);
       g.multi(I - m * nm, Im);
       S acc[1 + 2 * D] = {};
       for (int k = 0; k < n_st; ++k) {
@@ -308,7 +313,7 @@ class CpuRunner final : public Runner {
         if (!ok) continue;
         const long b = m * nm + g.linear(B);
         for (long j = start[b]; j < start[b + 1]; ++j) {
-          const P2GParticle<D, S> q = p2g_load<D, S, Model>(pv, order[j], spm);
+          const P2GParticle<D, S> q = p2g_load<D, S, Model>(pv, order[j], params_of(m, order[j]));
           S c[1 + 2 * D];
           p2g_contribution<D, S, Shape>(q, Im, g.inv_h, c);
           for (int f = 0; f < 1 + 2 * D; ++f) acc[f] += c[f];
@@ -331,7 +336,8 @@ class CpuRunner final : public Runner {
   long nn_;  // grid nodes of all members
   std::vector<MemberValues<typename Model::Params, S>> values_;
   std::vector<std::uint32_t> dead_;
-  std::vector<SP> msp_;  // per member: sp_ with the member's values (kMembers)
+  std::vector<SP> msp_;  // per entry of values_: sp_ with its values (kMembers)
+  std::vector<std::uint8_t> material_;  // per point: material index (several materials)
   int stage_ = 0;
   double t_ = 0;
   std::vector<S> part_, grid_, dtlim_, trbar_;

@@ -52,6 +52,12 @@ __global__ void gather_kernel(ParticleView<S> src, ParticleView<S> dst, int nfie
   ids_dst[i] = ids_src[from];
 }
 
+// Several materials: the material index of each slot follows its point.
+__global__ void gather_material_kernel(const std::uint8_t* src, std::uint8_t* dst, const std::uint32_t* perm, long n) {
+  const long i = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  if (i < n) dst[i] = src[perm[i]];
+}
+
 __global__ void inverse_kernel(const std::uint32_t* ids, std::uint32_t* inv, long n) {
   const long i = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
   if (i < n) inv[ids[i]] = static_cast<std::uint32_t>(i);
@@ -80,6 +86,10 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_sort() 
                                                  ids_, ids_alt_);
   check(cudaMemcpyAsync(part_, alt_, sizeof(S) * Lay::N * n_, cudaMemcpyDeviceToDevice, stream_), "sort copy");
   check(cudaMemcpyAsync(ids_, ids_alt_, sizeof(std::uint32_t) * n_, cudaMemcpyDeviceToDevice, stream_), "sort copy");
+  if (material_) {
+    gather_material_kernel<<<b, kAuxBlock, 0, stream_>>>(material_, material_alt_, sort_slots_[1], n_);
+    check(cudaMemcpyAsync(material_, material_alt_, n_, cudaMemcpyDeviceToDevice, stream_), "sort copy");
+  }
   inverse_kernel<<<b, kAuxBlock, 0, stream_>>>(ids_, inv_, n_);
 }
 

@@ -116,6 +116,7 @@ class CudaRunner final : public Runner {
     Members<typename Model::Params, S> m = sp_.members;
     m.values = values_.data();
     m.dead = nullptr;
+    m.material = material_host_.empty() ? nullptr : material_host_.data();  // original order, as frames
     return m;
   }
 
@@ -169,7 +170,12 @@ class CudaRunner final : public Runner {
   TerrainNode* terrain_ = nullptr;  // frictional terrain's nodes (terrain_kernel; none: no launch)
   long n_terrain_ = 0;
   double terrain_mu_ = 0;
-  std::vector<MV> values_;                 // ensembles: per-member values (host copy)
+  std::vector<MV> values_;                 // ensembles: per member and material (host copy)
+  // Several materials: per slot, the point's material index (sp_.members.material), sorted
+  // with the points; the host copy in the original order.
+  std::uint8_t* material_ = nullptr;
+  std::uint8_t* material_alt_ = nullptr;
+  std::vector<std::uint8_t> material_host_;
   MV* values_dev_ = nullptr;               // ... on the device (sp_.members.values)
   std::uint32_t* dead_ = nullptr;          // per member, non-zero: retired (sp_.members.dead)
   std::vector<std::uint32_t> dead_host_;

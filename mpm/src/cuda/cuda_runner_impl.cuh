@@ -41,7 +41,7 @@ template <int D, class S, class Model, class Shape, bool kBoundary, bool kMember
 inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const SceneSetup& su, const CudaOptions& opt)
     : sp_(detail::step_params<D, S, Model>(su)), n_(su.particles.n), nn_(su.n_nodes * su.members), opt_(opt) {
   if (n_ <= 0 || n_ >= (1L << 31)) throw std::runtime_error("CUDA backend: particle count out of range");
-  if (kMembers != (su.members > 1)) throw std::logic_error("CUDA backend: ensemble instantiation mismatch");
+  if (kMembers != detail::uses_members(su)) throw std::logic_error("CUDA backend: ensemble instantiation mismatch");
   if (opt_.graph_steps < 1) opt_.graph_steps = 1;
   while (opt_.graph_steps & (opt_.graph_steps - 1)) opt_.graph_steps &= opt_.graph_steps - 1;  // power of two
   if (opt_.g2p_reg_cap && opt_.g2p_block > 128) opt_.g2p_block = 128;
@@ -119,8 +119,9 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const Sce
     // per-member values, retired flags and first bad particles (sp_.members, SpanControl)
     const int nm = su.members;
     values_ = detail::member_values<D, S, Model>(su);
-    values_dev_ = device_alloc<MV>(nm);
-    check(cudaMemcpy(values_dev_, values_.data(), sizeof(MV) * nm, cudaMemcpyHostToDevice), "member values");
+    values_dev_ = device_alloc<MV>(values_.size());  // members x materials entries
+    check(cudaMemcpy(values_dev_, values_.data(), sizeof(MV) * values_.size(), cudaMemcpyHostToDevice),
+          "member values");
     dead_host_.assign(nm, 0u);
     dead_ = device_alloc<std::uint32_t>(nm);
     check(cudaMemset(dead_, 0, sizeof(std::uint32_t) * nm), "member flags");
@@ -128,6 +129,12 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const Sce
     check(cudaMemset(member_bad_, 0xff, sizeof(unsigned long long) * nm), "member failures");  // kNoBadParticle
     sp_.members.values = values_dev_;
     sp_.members.dead = dead_;
+    if (!su.point_material.empty()) {  // uploaded in load()
+      material_host_ = su.point_material;
+      material_ = device_alloc<std::uint8_t>(n_);
+      material_alt_ = device_alloc<std::uint8_t>(n_);
+      sp_.members.material = material_;
+    }
   }
   for (auto& e : ev_) check(cudaEventCreate(&e), "cudaEventCreate");
   preload();
@@ -147,7 +154,8 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::~CudaRunner() {
                   static_cast<void*>(sub_ids_), static_cast<void*>(sub_out_), static_cast<void*>(deferred_),
                   static_cast<void*>(n_deferred_), static_cast<void*>(values_dev_), static_cast<void*>(dead_),
                   static_cast<void*>(member_bad_), static_cast<void*>(snap_dev_), static_cast<void*>(snap_sub_ids_),
-                  static_cast<void*>(snap_sub_dev_), static_cast<void*>(terrain_)})
+                  static_cast<void*>(snap_sub_dev_), static_cast<void*>(terrain_), static_cast<void*>(material_),
+                  static_cast<void*>(material_alt_)})
     cudaFree(p);
   if (copy_stream_) {
     cudaStreamDestroy(copy_stream_);
@@ -177,6 +185,8 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::load(const Host
   const std::vector<S> host = detail::pack<D, S, kColl>(hp);
   check(cudaMemcpyAsync(part_, host.data(), host.size() * sizeof(S), cudaMemcpyHostToDevice, stream_),
         "upload particles");
+  if (material_)
+    check(cudaMemcpyAsync(material_, material_host_.data(), n_, cudaMemcpyHostToDevice, stream_), "upload materials");
   iota_kernel<<<blocks_for(n_, kAuxBlock), kAuxBlock, 0, stream_>>>(ids_, n_);
   iota_kernel<<<blocks_for(n_, kAuxBlock), kAuxBlock, 0, stream_>>>(inv_, n_);
   // the grid kernel keeps mass, momentum and force zero between steps; velocities of nodes

@@ -84,7 +84,8 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::fill_subset(con
   if constexpr (kMembers) {
     // entry j is particle subset[j] of member subset[j] / P: one "member" per entry
     std::vector<MV> vals(m);
-    for (long j = 0; j < m; ++j) vals[j] = values_[sp_.members.of_particle(subset[j])];
+    const Members<typename Model::Params, S> hm = host_members();
+    for (long j = 0; j < m; ++j) vals[j] = values_[hm.value_index(hm.of_particle(subset[j]), subset[j])];
     Members<typename Model::Params, S> per_entry;
     per_entry.count = static_cast<int>(m);
     per_entry.particles = 1;

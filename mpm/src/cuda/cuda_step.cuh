@@ -67,7 +67,7 @@ __device__ __forceinline__ void scatter_warp(const P2GParticle<D, S>& q, const i
 
 // Contribution order: c[0] mass, c[1..D] momentum, c[1+D..2D] force, which are the grid
 // fields 0..2D of GridLayout.
-// kMembers: the particle's member k gives its values (apply_member) and its block of nodes:
+// kMembers: the particle's member k (and material) gives its values (apply_member) and k its block of nodes:
 // node (and run key, and bin) k G + local node, so runs never join points of two members.
 // A retired member's points contribute nothing. The tile mode is not built for ensembles (a
 // block's box would have to stay inside one member's nodes): they scatter with warp sums.
@@ -99,7 +99,7 @@ __global__ void __launch_bounds__(kP2GBlock, p2g_min_blocks<S>())
   if (valid) {
     if constexpr (kMembers) {
       StepParams<D, S, Model> spm = sp;
-      apply_member(spm, k);
+      apply_member(spm, sp.members.value_index(k, p));
       q = p2g_load<D, S, Model>(pv, p, spm);
     } else {
       q = p2g_load<D, S, Model>(pv, p, sp);
@@ -185,7 +185,7 @@ __global__ void grid_kernel(GridView<S> gv, StepParams<D, S, Model> sp0, const S
   if constexpr (kMembers) {
     const int k = sp.members.of_node(I);
     StepParams<D, S, Model> spm = sp;
-    apply_member(spm, k);
+    apply_member(spm, sp.members.node_values(k));
     grid_update_node<D, S, Model, kBoundary, kContacts>(member_grid(gv, sp.members, k),
                                                         I - static_cast<long>(k) * sp.members.nodes, spm);
   } else {
@@ -220,7 +220,7 @@ __global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
     const int k = p < pv.n ? sp.members.of_particle(p) : 0;
     if (p < pv.n && !sp.members.skipped(k)) {
       StepParams<D, S, Model> spm = sp;
-      apply_member(spm, k);
+      apply_member(spm, sp.members.value_index(k, p));
       const std::uint32_t st =
           g2p_particle<D, S, Model, Shape>(pv, member_grid(gv, sp.members, k), p, spm, &lim, &upd_info[p]);
       if (st) report_bad<kMembers>(ctl, k, ids[p], st);
@@ -254,7 +254,7 @@ __global__ void __launch_bounds__(kSplitBlock, kMinBlocks)
     const int k = p < pv.n ? sp.members.of_particle(p) : 0;
     if (p < pv.n && !sp.members.skipped(k)) {
       StepParams<D, S, Model> spm = sp;
-      apply_member(spm, k);
+      apply_member(spm, sp.members.value_index(k, p));
       const std::uint32_t st = g2p_particle<D, S, Model, Shape, UpdatePart::ElasticOnly>(
           pv, member_grid(gv, sp.members, k), p, spm, &lim, &upd_info[p]);
       defer = st == kDeferredPoint;
@@ -296,7 +296,7 @@ __global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
     if constexpr (kMembers) {
       const int k = sp.members.of_particle(p);
       StepParams<D, S, Model> spm = sp;
-      apply_member(spm, k);
+      apply_member(spm, sp.members.value_index(k, p));
       const std::uint32_t st = constitutive_particle<D, S, Model>(pv, p, spm, S(NAN), &lim, &upd_info[p]);
       if (st) report_bad<kMembers>(ctl, k, ids[p], st);
     } else {
@@ -322,7 +322,7 @@ __global__ void g2p_kinematics_kernel(ParticleView<S> pv, GridView<S> gv, StepPa
     const int k = sp.members.of_particle(p);
     if (sp.members.skipped(k)) return;
     StepParams<D, S, Model> spm = sp;
-    apply_member(spm, k);
+    apply_member(spm, sp.members.value_index(k, p));
     const std::uint32_t st = g2p_kinematics<D, S, Model, Shape>(pv, member_grid(gv, sp.members, k), p, spm);
     status[p] = st;
     if (st) {
@@ -360,7 +360,7 @@ __global__ void __launch_bounds__(kMaxThreads, kMinBlocks)
     const int k = p < pv.n ? sp.members.of_particle(p) : 0;
     if (p < pv.n && !sp.members.skipped(k) && status[p] == 0) {  // else retired, or the kinematics failed
       StepParams<D, S, Model> spm = sp;
-      apply_member(spm, k);
+      apply_member(spm, sp.members.value_index(k, p));
       const long b = keys[p];
       const S tr_bar = bin_v[b] > S(0) ? bin_vtr[b] / bin_v[b] : S(0);
       const std::uint32_t st = constitutive_particle<D, S, Model>(pv, p, spm, tr_bar, &lim, &upd_info[p]);

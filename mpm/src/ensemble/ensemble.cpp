@@ -132,6 +132,9 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
     settle();
     Frame full;
     runner.frame(full, true);
+    full.body = su.point_body;
+    full.material.assign(su.point_material.begin(), su.point_material.end());
+    full.material.resize(su.point_body.size(), 0);
     for (int k = 0; k < nm; ++k) {
       if (!alive[k]) continue;
       char name[64];

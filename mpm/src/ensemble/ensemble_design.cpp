@@ -86,10 +86,18 @@ void random_shift(std::vector<std::vector<double>>& u, int dims, std::uint64_t s
 
 // A key as `granflow mpm --set` takes it (mpm/src/scene/scene_file.cpp split_key): names of letters,
 // digits, _ and -, joined by '.', a name may carry an index [i]; the last part is a name.
+// NAME:KEY names the [[material]] a key is of (NAME: letters, digits, _ and -).
 // Returns the key with indices written without leading zeros, or "" when malformed.
 std::string canonical_set_key(const std::string& key) {
   std::string out;
   std::size_t at = 0;
+  if (const std::size_t colon = key.find(':'); colon != std::string::npos) {
+    if (colon == 0) return "";
+    for (std::size_t i = 0; i < colon; ++i)
+      if (!std::isalnum(static_cast<unsigned char>(key[i])) && key[i] != '_' && key[i] != '-') return "";
+    out = key.substr(0, colon + 1);
+    at = colon + 1;
+  }
   for (;;) {
     std::size_t end = at;
     while (end < key.size() && (std::isalnum(static_cast<unsigned char>(key[end])) || key[end] == '_' || key[end] == '-'))
@@ -176,7 +184,8 @@ EnsembleDesign read_design(const toml::table& doc, const std::string& file) {
     const std::string key = canonical_set_key(v.key);
     if (key.empty())
       t.fail("key", "'" + v.key + "' is not a --set key: names of letters, digits, _ and - joined by '.', "
-                    "with [i] for an entry of an array of tables (e.g. stage[1].gate.lift_speed)");
+                    "with [i] for an entry of an array of tables (e.g. stage[1].gate.lift_speed) and NAME: "
+                    "before a key of the [[material]] named NAME (e.g. weak:frictional.phi_c_deg)");
     for (std::size_t j = 0; j < canonical.size(); ++j)
       if (canonical[j] == key)
         t.fail("key", "'" + v.key + "' is varied twice: also in the [[vary]] at line " + std::to_string(d.vary[j].line));

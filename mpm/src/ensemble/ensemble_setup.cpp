@@ -1,5 +1,5 @@
 // One set-up of the members of an ensemble (ensemble.hpp): particles member after member,
-// stage blocks mask_stride bytes apart, one material per member.
+// stage blocks mask_stride bytes apart, the scene's materials per member.
 #include <algorithm>
 #include <cstring>
 #include <sstream>
@@ -42,6 +42,8 @@ SceneSetup make_ensemble_setup(const std::vector<SceneSetup>& members) {
     require(s.dim == s0.dim && m.nodes == m0.nodes && m.origin == m0.origin && s.h == s0.h, k, "grid", "the grid");
     require(m.particles.n == n && s.ppc_axis == s0.ppc_axis, k, "body", "the particles (count)");
     require(s.material.model == s0.material.model, k, "material.model", "the model");
+    require(s.material_count() == s0.material_count() && m.point_material == m0.point_material, k, "material",
+            "the materials (count, or which points have which)");
     require(s.shape == s0.shape && s.modified_boundary_splines == s0.modified_boundary_splines, k, "solver.shape",
             "the shape functions");
     require(s.precision == s0.precision, k, "solver.precision", "the precision");
@@ -88,7 +90,10 @@ SceneSetup make_ensemble_setup(const std::vector<SceneSetup>& members) {
     append(hp.eps, p.eps, 1, n, hp.n, k);
     append(hp.e, p.e, 1, n, hp.n, k);
     append(hp.s, p.s, 1, n, hp.n, k);
-    su.member_materials.push_back(members[k].scene.material);
+    for (int j = 0; j < s0.material_count(); ++j) su.member_materials.push_back(members[k].scene.material_at(j));
+    su.point_body.insert(su.point_body.end(), members[k].point_body.begin(), members[k].point_body.end());
+    su.point_material.insert(su.point_material.end(), members[k].point_material.begin(),
+                             members[k].point_material.end());
     su.dt_estimate = std::min(su.dt_estimate, members[k].dt_estimate);
   }
 
@@ -130,6 +135,8 @@ Frame member_frame(const Frame& all, int k, long n) {
                          {&all.K_col, &f.K_col}, {&all.e, &f.e}, {&all.sxx, &f.sxx}, {&all.syy, &f.syy},
                          {&all.sxy, &f.sxy}})
     slice(*in, 1, *out);
+  for (auto [in, out] : {std::pair{&all.material, &f.material}, {&all.body, &f.body}})
+    if (!in->empty()) out->assign(in->begin() + k * n, in->begin() + (k + 1) * n);
   return f;
 }
 

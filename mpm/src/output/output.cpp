@@ -94,6 +94,8 @@ void write_vtu(const std::string& path, const Frame& fr, bool binary, const std:
         {"sigma_yy", &fr.syy}, {"sigma_xy", &fr.sxy}};
     for (const auto& [name, v] : scalars)
       if (v->size() == static_cast<size_t>(n) && wanted(name)) data_array(os, "Float64", name, 1, *v, binary);
+    for (const auto& [name, v] : {std::pair<const char*, const std::vector<int>*>{"material", &fr.material}, {"body", &fr.body}})
+      if (v->size() == static_cast<size_t>(n) && wanted(name)) data_array(os, "Int32", name, 1, *v, binary);
     os << "      </PointData>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n";
   }
   file.commit();

@@ -156,7 +156,8 @@ ConsolidationCheck check_consolidation(const Frame& fr, const SceneSetup& su) {
     if (fr.x[i] < xa || fr.x[i] > xb) continue;
     const long k = std::clamp(static_cast<long>((top - fr.x[n + i]) / sc.h), 0L, nb - 1);
     sum[k] += -fr.syy[i];
-    rho[k] += sc.material.params.c.rho_p / (1 + fr.e[i]);
+    const int m = su.point_material.empty() ? 0 : su.point_material[i];
+    rho[k] += sc.material_at(m).params.c.rho_p / (1 + fr.e[i]);
     cnt[k] += 1;
   }
   double load = 0;  // rho g integrated over the bins above
@@ -270,6 +271,11 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
   double last_good_t = 0;
   auto full_frame = [&]() -> const Frame& {
     runner.frame(full, true);
+    if (full.body.empty()) {  // ids per point: the set-up's, the same in every frame
+      full.body = su.point_body;
+      full.material.assign(su.point_material.begin(), su.point_material.end());
+      full.material.resize(su.point_body.size(), 0);
+    }
     return full;
   };
   // The measures of a sample (run-out, energies: a pass over every particle) and the copy of

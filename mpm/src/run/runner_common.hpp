@@ -41,6 +41,10 @@ GridDesc<D, S> grid_desc(const SceneSetup& su) {
 // fraction instead of the node's own mass (kernels.hpp grid_update_node).
 inline constexpr double kLightNodeMass = 0.05;
 
+// Ensembles and scenes of several materials run the kMembers instantiations (kernels.hpp,
+// Members); a single run of one material the plain ones.
+inline bool uses_members(const SceneSetup& su) { return su.members > 1 || su.scene.material_count() > 1; }
+
 template <int D, class S, class Model>
 StepParams<D, S, Model> step_params(const SceneSetup& su) {
   StepParams<D, S, Model> sp;
@@ -61,25 +65,31 @@ StepParams<D, S, Model> step_params(const SceneSetup& su) {
   sp.want_dt_limit = 0;
   sp.vol_avg = su.scene.volumetric_averaging ? 1 : 0;
   sp.t = 0;
-  if (su.members > 1) {
+  if (uses_members(su)) {
     sp.members.count = su.members;
     sp.members.particles = su.particles.n / su.members;
     sp.members.nodes = su.n_nodes;
     sp.members.mask_stride = su.mask_stride;
+    sp.members.materials = su.scene.material_count();
   }
   return sp;
 }
 
-// Per-member parameters of an ensemble (Members::values), in the order of the members.
+// Per-member, per-material parameters (Members::values): member k's materials at
+// k * materials + material. A single run takes the scene's materials.
 template <int D, class S, class Model>
 std::vector<MemberValues<typename Model::Params, S>> member_values(const SceneSetup& su) {
   std::vector<MemberValues<typename Model::Params, S>> out;
   const long np = su.particles.n / su.members;
+  const int nmat = su.scene.material_count();
   for (int k = 0; k < su.members; ++k) {
-    const Material& mat = su.member_materials.at(static_cast<size_t>(k));
     double mmin = 1e300;
     for (long i = k * np; i < (k + 1) * np; ++i) mmin = std::min(mmin, su.particles.m[i]);
-    out.push_back({model_params<Model>(mat), S(mat.params.c.rho_p), S(1e-8 * mmin), S(kLightNodeMass * mmin)});
+    for (int j = 0; j < nmat; ++j) {
+      const Material& mat = su.member_materials.empty() ? su.scene.material_at(j)
+                                                        : su.member_materials.at(static_cast<size_t>(k * nmat + j));
+      out.push_back({model_params<Model>(mat), S(mat.params.c.rho_p), S(1e-8 * mmin), S(kLightNodeMass * mmin)});
+    }
   }
   return out;
 }
@@ -168,7 +178,7 @@ void make_frame(const std::vector<S>& a, long n, const typename Model::Params& m
     for (long i = 0; i < n; ++i) fr.T[i] = pv.f(Lay::SQT, i) * pv.f(Lay::SQT, i);
   using MS = typename Model::Scalar;
   auto point = [&](long i, Diagnostics<MS>& dg, Mat3<S>& sig) {
-    const auto& mp = members.values ? members.values[members.of_particle(i)].mp : mp0;
+    const auto& mp = members.values ? members.values[members.value_index(members.of_particle(i), i)].mp : mp0;
     const auto st = StateIO<Model>::template load<D>(pv, i);
     Mat3<MS> L = Mat3<MS>::Zero();
     for (int r = 0; r < D; ++r)
@@ -226,9 +236,12 @@ auto dispatch_scalar(const SceneSetup& su, F& f) {
   if (quad) return f.template run<DIM, S, FR, QuadraticShape, B, M>(su);          \
   return f.template run<DIM, S, FR, LinearShape, B, M>(su);
 #define GF_MPM_CASE(DIM, B) GF_MPM_CASE_M(DIM, B, false)
-  if (su.members > 1) {
+  if (uses_members(su)) {
     if (sc.dim != 2 || !su.has_boundary)
-      throw SceneError("dimension", "ensembles are compiled for 2D scenes with a wall, a base or a gate");
+      throw SceneError(su.members > 1 ? "dimension" : "material",
+                       su.members > 1 ? "ensembles are compiled for 2D scenes with a wall, a base or a gate"
+                                      : "scenes of several materials are compiled for 2D scenes with a wall, a base "
+                                        "or a gate");
     GF_MPM_CASE_M(2, true, true)
   }
   if (!su.has_boundary) {

@@ -151,8 +151,136 @@ std::string with_overrides(const std::vector<std::string>& sets) {
   return s.empty() ? s : s + ")";
 }
 
-Scene read_scene(const toml::table& doc, const std::string& path, const std::string& params,
-                 const std::vector<std::string>& parameter_sets) {
+// A material name: letters, digits, _ and - (so that NAME= and NAME: parse unambiguously).
+bool material_name_ok(const std::string& name) {
+  if (name.empty()) return false;
+  for (char c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-') return false;
+  return true;
+}
+
+// The command line's material overrides: an unqualified --params and parameter-set --set keys,
+// and those naming a material (--params NAME=SET, --set NAME:frictional.KEY=VALUE).
+struct MaterialOverrides {
+  std::string params;
+  std::vector<std::pair<std::string, std::string>> named_params;  // name, set
+  struct Set {
+    std::string material;    // "" unqualified
+    std::string assignment;  // without NAME:
+    std::string given;       // as given
+  };
+  std::vector<Set> sets;
+};
+
+// One [material] or [[material]] table: its parameter set (params or the table's), the
+// overrides of that set, model, rho_p, e0, T0.
+mpm::Material read_material(TomlTable& mat, const std::string& path, const std::string& params,
+                            const std::vector<MaterialOverrides::Set>& sets, const std::string& params_flag) {
+  mpm::Material m;
+  std::string pset = params;
+  if (params.empty()) {
+    pset = mat.string("parameters");
+    const std::filesystem::path rel = std::filesystem::path(path).parent_path() / pset;
+    if (pset.find('/') != std::string::npos && std::filesystem::exists(rel)) pset = rel.string();
+  } else {
+    mat.string_or("parameters", "");  // replaced by --params
+  }
+  auto fail_set = [&](const std::string& message) {
+    if (!params.empty()) throw InputError("--params '" + params_flag + "': " + message);
+    mat.fail("parameters", message);
+  };
+  ParameterSet set;
+  try {
+    set = load_parameter_set(pset);
+  } catch (const InputError& e) {
+    fail_set(e.what());
+  }
+  for (const auto& a : sets)
+    apply_override(set, a.assignment, a.material.empty() ? "--set" : "--set (material " + a.material + ")");
+  m.name = set.file;
+  const std::string model = mat.choice("model", {"phase_transition", "frictional"}, "phase_transition");
+  m.model = model == "frictional" ? mpm::ModelKind::Frictional : mpm::ModelKind::PhaseTransition;
+  if (!set.has_frictional()) fail_set("the set " + set.file + " has no [frictional] part");
+  m.params.f = *set.frictional;
+  if (set.has_collisional()) m.params.c = *set.collisional;
+  if (m.model == mpm::ModelKind::PhaseTransition && !set.has_collisional())
+    mat.fail("model", "\"phase_transition\" needs a set with a [collisional] part; " + set.file + " has none");
+  if (mat.has("rho_p")) m.params.c.rho_p = mat.number("rho_p", Bounds::positive());
+  if (!(m.params.c.rho_p > 0))
+    mat.fail("rho_p", "the parameter set gives no particle density: set " + mat.dotted("rho_p"));
+  const auto e0 = mat.optional_number("e0", Bounds::open(0, kVoidRatioMax));
+  if (!e0 && set.e0.empty()) mat.fail("e0", "required: the parameter set names no initial void ratio");
+  m.e0 = e0 ? *e0 : set.e0.front();
+  check_initial_void_ratio(set, m.e0, "'" + mat.dotted("e0") + "' in " + path);
+  m.T0 = mat.number_or("T0", set.T0.value_or(1e-15), Bounds::non_negative());
+  return m;
+}
+
+// The scene's materials: one [material], or [[material]] tables each with a name.
+void read_materials(TomlTable& root, mpm::Scene& sc, const std::string& path, const MaterialOverrides& mo) {
+  const toml::node* node = root.raw().get("material");
+  if (!node || !node->is_array_of_tables()) {  // one unnamed material (or the reader's error)
+    TomlTable mat = root.table("material");
+    for (const auto& [name, set] : mo.named_params)
+      throw InputError("--params '" + name + "=" + set + "': the scene has one unnamed [material], no [[material]] "
+                       "named '" + name + "': use --params " + set);
+    for (const auto& a : mo.sets)
+      if (!a.material.empty())
+        throw InputError("--set '" + a.given + "': the scene has one unnamed [material], no [[material]] named '" +
+                         a.material + "': use --set " + a.assignment);
+    sc.material = read_material(mat, path, mo.params, mo.sets, mo.params);
+    mat.finish();
+    return;
+  }
+  auto tables = root.array_of_tables("material");
+  std::vector<std::string> names;
+  for (auto& t : tables) {
+    const std::string name = t.string("name");
+    if (!material_name_ok(name))
+      t.fail("name", "'" + name + "' is not a material name: letters, digits, _ and - only");
+    for (size_t j = 0; j < names.size(); ++j)
+      if (names[j] == name) t.fail("name", "'" + name + "' names material[" + std::to_string(j) + "] too");
+    names.push_back(name);
+  }
+  std::string list;
+  for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+  const bool several = names.size() > 1;
+  auto known = [&](const std::string& name, const std::string& who) {
+    if (std::find(names.begin(), names.end(), name) == names.end())
+      throw InputError(who + ": the scene has no [[material]] named '" + name + "' (its materials: " + list + ")");
+  };
+  for (const auto& [name, set] : mo.named_params) known(name, "--params '" + name + "=" + set + "'");
+  if (several && !mo.params.empty())
+    throw InputError("--params '" + mo.params + "': the scene has " + std::to_string(names.size()) +
+                     " materials (" + list + "): name one, e.g. --params " + names[0] + "=" + mo.params);
+  for (const auto& a : mo.sets) {
+    if (!a.material.empty()) known(a.material, "--set '" + a.given + "'");
+    else if (several)
+      throw InputError("--set '" + a.given + "': the scene has " + std::to_string(names.size()) + " materials (" +
+                       list + "): name the one to change, e.g. --set " + names[0] + ":" + a.assignment);
+  }
+  for (size_t i = 0; i < tables.size(); ++i) {
+    std::string params = several ? "" : mo.params, flag = params;
+    for (const auto& [name, set] : mo.named_params)
+      if (name == names[i]) params = set, flag = name + "=" + set;
+    std::vector<MaterialOverrides::Set> sets;
+    for (const auto& a : mo.sets)
+      if (a.material.empty() || a.material == names[i]) sets.push_back(a);
+    mpm::Material m = read_material(tables[i], path, params, sets, flag);
+    m.label = names[i];
+    tables[i].finish();
+    if (i > 0 && m.model != sc.material.model) {
+      auto word = [](mpm::ModelKind k) { return k == mpm::ModelKind::Frictional ? "\"frictional\"" : "\"phase_transition\""; };
+      tables[i].fail("model", std::string(word(m.model)) + " differs from material[0].model (" + word(sc.material.model) +
+                                  "): every material of a scene has the same model (the kernels are compiled for "
+                                  "one model)");
+    }
+    if (i == 0) sc.material = m;
+    else sc.other_materials.push_back(m);
+  }
+}
+
+Scene read_scene(const toml::table& doc, const std::string& path, const MaterialOverrides& mo) {
   TomlTable root(doc, path);
   mpm::Scene sc;
   sc.file = path;
@@ -207,45 +335,7 @@ Scene read_scene(const toml::table& doc, const std::string& path, const std::str
     sc.gravity[1] = -9.81;
   }
 
-  TomlTable mat = root.table("material");
-  {
-    std::string pset = params;
-    if (params.empty()) {
-      pset = mat.string("parameters");
-      const std::filesystem::path rel = std::filesystem::path(path).parent_path() / pset;
-      if (pset.find('/') != std::string::npos && std::filesystem::exists(rel)) pset = rel.string();
-    } else {
-      mat.string_or("parameters", "");  // replaced by --params
-    }
-    auto fail_set = [&](const std::string& message) {
-      if (!params.empty()) throw InputError("--params '" + params + "': " + message);
-      mat.fail("parameters", message);
-    };
-    ParameterSet set;
-    try {
-      set = load_parameter_set(pset);
-    } catch (const InputError& e) {
-      fail_set(e.what());
-    }
-    for (const auto& a : parameter_sets) apply_override(set, a, "--set");
-    sc.material.name = set.file;
-    const std::string model = mat.choice("model", {"phase_transition", "frictional"}, "phase_transition");
-    sc.material.model = model == "frictional" ? mpm::ModelKind::Frictional : mpm::ModelKind::PhaseTransition;
-    if (!set.has_frictional()) fail_set("the set " + set.file + " has no [frictional] part");
-    sc.material.params.f = *set.frictional;
-    if (set.has_collisional()) sc.material.params.c = *set.collisional;
-    if (sc.material.model == mpm::ModelKind::PhaseTransition && !set.has_collisional())
-      mat.fail("model", "\"phase_transition\" needs a set with a [collisional] part; " + set.file + " has none");
-    if (mat.has("rho_p")) sc.material.params.c.rho_p = mat.number("rho_p", Bounds::positive());
-    if (!(sc.material.params.c.rho_p > 0))
-      mat.fail("rho_p", "the parameter set gives no particle density: set material.rho_p");
-    const auto e0 = mat.optional_number("e0", Bounds::open(0, kVoidRatioMax));
-    if (!e0 && set.e0.empty()) mat.fail("e0", "required: the parameter set names no initial void ratio");
-    sc.material.e0 = e0 ? *e0 : set.e0.front();
-    check_initial_void_ratio(set, sc.material.e0, "'" + mat.dotted("e0") + "' in " + path);
-    sc.material.T0 = mat.number_or("T0", set.T0.value_or(1e-15), Bounds::non_negative());
-  }
-  mat.finish();
+  read_materials(root, sc, path, mo);
 
   if (auto is = root.optional_table("initial_stress")) {
     sc.initial.geostatic = is->choice("kind", {"zero", "geostatic"}, "zero") == "geostatic";
@@ -261,6 +351,21 @@ Scene read_scene(const toml::table& doc, const std::string& path, const std::str
     sc.lines["body[" + std::to_string(sc.bodies.size()) + "]"] = b.line();
     for (const char* k : {"min", "max", "polygon_x", "polygon_y", "top", "bottom", "plan_x", "plan_z"}) note(b, k);
     mpm::Body body;
+    if (b.has("material")) {
+      const std::string name = b.string("material");
+      if (sc.material.label.empty())
+        b.fail("material", "the scene has one unnamed [material]; name materials in [[material]] tables to choose one");
+      body.material = sc.material_index(name);
+      if (body.material < 0) {
+        std::string list;
+        for (int i = 0; i < sc.material_count(); ++i) list += (list.empty() ? "" : ", ") + sc.material_at(i).label;
+        b.fail("material", "no [[material]] is named '" + name + "' (the scene's materials: " + list + ")");
+      }
+    } else if (sc.material_count() > 1) {
+      b.fail_missing("material", "the name of its [[material]]: the scene has " +
+                                     std::to_string(sc.material_count()) + " materials");
+    }
+    note(b, "material");
     if (b.has("top") || b.has("bottom") || b.has("plan_x") || b.has("plan_z")) {  // a release volume
       if (D != 3) b.fail(b.has("top") ? "top" : "bottom", "a body between surfaces needs grid.dim = 3");
       for (const char* k : {"min", "max", "polygon_x", "polygon_y"})
@@ -479,21 +584,55 @@ Scene read_scene(const toml::table& doc, const std::string& path, const std::str
 mpm::Scene load_scene(const std::string& path, const SceneOverrides& overrides) {
   if (!std::filesystem::exists(path)) throw InputError(where(path) + "no such scene file");
   toml::table doc = TomlTable::parse_file(path);
-  std::vector<std::string> parameter_sets;
+  MaterialOverrides mo;
+  mo.params = overrides.params;
+  for (const std::string& a : overrides.material_params) {
+    const auto eq = a.find('=');
+    const std::string name = eq == std::string::npos ? "" : a.substr(0, eq);
+    if (!material_name_ok(name) || eq + 1 >= a.size())
+      throw InputError("--params '" + a + "': expected NAME=SET (a [[material]] name and a parameter set)");
+    mo.named_params.emplace_back(name, a.substr(eq + 1));
+  }
   for (const std::string& a : overrides.sets) {
     const std::string origin = "--set '" + a + "'", who = where(path) + origin + ": ";
     const auto eq = a.find('=');
-    const std::vector<KeyPart> parts = eq == std::string::npos ? std::vector<KeyPart>{} : split_key(override_key(a));
+    // NAME:KEY addresses the [[material]] named NAME
+    const auto colon = a.find(':');
+    std::string material, assignment = a;
+    if (colon != std::string::npos && colon < eq) {
+      material = trim(a.substr(0, colon));
+      assignment = a.substr(colon + 1);
+      if (!material_name_ok(material))
+        throw InputError(who + "expected NAME:KEY=VALUE with a [[material]] name, e.g. weak:frictional.phi_c_deg=20");
+    }
+    const auto aeq = assignment.find('=');
+    const std::vector<KeyPart> parts =
+        aeq == std::string::npos ? std::vector<KeyPart>{} : split_key(override_key(assignment));
     if (parts.empty())
       throw InputError(who + "expected KEY=VALUE, e.g. grid.h=0.0025, stage[1].duration=0.5 or frictional.phi_c_deg=30");
-    if (is_parameter_set_key(parts))
-      parameter_sets.push_back(a);
-    else
+    if (is_parameter_set_key(parts)) {
+      mo.sets.push_back({material, assignment, a});
+    } else if (!material.empty()) {  // a key of that [[material]] table
+      const toml::node* m = doc.get("material");
+      long index = -1;
+      if (m && m->is_array_of_tables())
+        for (std::size_t i = 0; i < m->as_array()->size(); ++i) {
+          const toml::node* name = m->as_array()->get(i)->as_table()->get("name");
+          if (name && name->value<std::string>() == material) index = static_cast<long>(i);
+        }
+      if (index < 0) throw InputError(who + "the scene has no [[material]] named '" + material + "'");
+      if (parts.size() != 1 || parts[0].index >= 0 || parts[0].name == "name")
+        throw InputError(who + "NAME:KEY takes a key of the material's table (parameters, model, rho_p, e0, T0) or of "
+                               "its parameter set (frictional., collisional., initial., numerics.)");
+      std::vector<KeyPart> full = {KeyPart{"material", index}, parts[0]};
+      set_scene_value(doc, full, parse_value(assignment.substr(aeq + 1), origin, who), origin, who);
+    } else {
       set_scene_value(doc, parts, parse_value(a.substr(eq + 1), origin, who), origin, who);
+    }
   }
   Scene sc;
   try {
-    sc = read_scene(doc, path, overrides.params, parameter_sets);
+    sc = read_scene(doc, path, mo);
   } catch (const InputError& e) {
     const std::string msg = e.what();
     if (overrides.sets.empty() || msg.find("--set '") != std::string::npos) throw;

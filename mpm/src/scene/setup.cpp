@@ -252,18 +252,32 @@ SceneSetup make_setup(const Scene& sc) {
   }
 
   // Particles on a lattice of spacing h / ppc_axis, aligned with each body's lower corner.
-  const Material& mat = sc.material;
-  const double rho0 = mat.params.c.rho_p / (1.0 + mat.e0);
+  // Materials: one model, a body's material one of them; bulk density at rest per material.
+  const int nmat = sc.material_count();
+  if (nmat > 255) fail("material", "at most 255 materials, got " + std::to_string(nmat));
+  std::vector<double> rho0s(nmat);
+  for (int m = 0; m < nmat; ++m) {
+    const Material& mm = sc.material_at(m);
+    if (mm.model != sc.material.model)
+      fail("material[" + std::to_string(m) + "].model",
+           "differs from material[0].model: every material of a scene has the same model");
+    rho0s[m] = mm.params.c.rho_p / (1.0 + mm.e0);
+  }
+  std::vector<int> pos_body;  // body of each point, as pos
   std::vector<std::vector<double>> pos(D);
   double points_wanted = 0;
   const double ram = physical_memory();
   for (size_t b = 0; b < sc.bodies.size(); ++b) {
     const Body& body = sc.bodies[b];
     const std::string key = "body[" + std::to_string(b) + "]";
+    if (body.material < 0 || body.material >= nmat)
+      fail(key + ".material", "material " + std::to_string(body.material) + " does not exist (the scene has " +
+                                  std::to_string(nmat) + ")");
     if (body.is_release()) {
       const long before = static_cast<long>(pos[0].size());
       double geometric = 0;
       seed_release(sc, body, key, l, pos, geometric, points_wanted);
+      pos_body.resize(pos[0].size(), static_cast<int>(b));
       su.seeded_volume.push_back(double(static_cast<long>(pos[0].size()) - before) * std::pow(l, D));
       su.geometric_volume.push_back(geometric);
       continue;
@@ -311,6 +325,7 @@ SceneSetup make_setup(const Scene& sc) {
       if (body.is_polygon() && !inside_polygon(body.poly_x, body.poly_y, x[0], x[1])) continue;
       for (int d = 0; d < D; ++d) pos[d].push_back(x[d]);
     }
+    pos_body.resize(pos[0].size(), static_cast<int>(b));
     su.seeded_volume.push_back(double(static_cast<long>(pos[0].size()) - before) * std::pow(l, D));
     double geometric = 1;
     if (body.is_polygon()) {
@@ -362,18 +377,53 @@ SceneSetup make_setup(const Scene& sc) {
   hp.x.resize(D * n);
   for (int d = 0; d < D; ++d) std::copy(pos[d].begin(), pos[d].end(), hp.x.begin() + d * n);
   hp.v.assign(D * n, 0.0);
-  hp.m.assign(n, rho0 * std::pow(l, D));
   hp.sig.assign(6 * n, 0.0);
   hp.sigf.assign(6 * n, 0.0);
   hp.L.assign(D * D * n, 0.0);
   hp.eps.assign(n, 0.0);
-  hp.e.assign(n, mat.e0);
-  hp.s.assign(n, std::sqrt(mat.T0));
+  su.point_body = std::move(pos_body);
+  if (nmat > 1) {
+    su.point_material.resize(n);
+    for (long i = 0; i < n; ++i) su.point_material[i] = static_cast<std::uint8_t>(sc.bodies[su.point_body[i]].material);
+  }
+  auto material_of = [&](long i) { return nmat > 1 ? static_cast<int>(su.point_material[i]) : 0; };
+  hp.m.resize(n);
+  hp.e.resize(n);
+  hp.s.resize(n);
+  for (long i = 0; i < n; ++i) {
+    const int m = material_of(i);
+    hp.m[i] = rho0s[m] * std::pow(l, D);
+    hp.e[i] = sc.material_at(m).e0;
+    hp.s[i] = std::sqrt(sc.material_at(m).T0);
+  }
 
-  const FrictionalParams<double>& fp = mat.params.f;
   const double g = std::sqrt(std::inner_product(sc.gravity.begin(), sc.gravity.end(), sc.gravity.begin(), 0.0));
-  const double K0 = sc.initial.K0 >= 0 ? sc.initial.K0 : 1.0 - std::sin(fp.phi_c);
+  auto K0_of = [&](int m) { return sc.initial.K0 >= 0 ? sc.initial.K0 : 1.0 - std::sin(sc.material_at(m).params.f.phi_c); };
   double depth_max = 0;
+  // Several materials: the overburden of a point differs from rho g depth (its own density) by
+  // (rho_m - rho) g l for every point of another material m above it in its column.
+  std::vector<double> overburden_fix;
+  if (nmat > 1 && sc.initial.geostatic) {
+    overburden_fix.assign(n, 0.0);
+    std::map<long, std::vector<long>> columns;
+    for (long i = 0; i < n; ++i) {
+      long key = std::lround(hp.x[i] / l * 2);
+      if (D == 3) key = key * 1000003L + std::lround(hp.x[2 * n + i] / l * 2);
+      columns[key].push_back(i);
+    }
+    for (auto& [key, pts] : columns) {
+      std::stable_sort(pts.begin(), pts.end(), [&](long a, long b) { return hp.x[n + a] > hp.x[n + b]; });
+      std::vector<long> above(nmat, 0);
+      for (long i : pts) {
+        const int mi = material_of(i);
+        double fix = 0;
+        for (int m = 0; m < nmat; ++m)
+          if (m != mi && above[m] > 0) fix += (rho0s[m] - rho0s[mi]) * l * double(above[m]);
+        overburden_fix[i] = fix;
+        ++above[mi];
+      }
+    }
+  }
   {
     // Free surface above each lattice column: highest particle plus half a spacing.
     std::map<long, double> top;
@@ -390,11 +440,15 @@ SceneSetup make_setup(const Scene& sc) {
       const double depth = top[key] + 0.5 * l - hp.x[n + i];
       depth_max = std::max(depth_max, depth);
       if (!sc.initial.geostatic) continue;
-      const double sv = -rho0 * g * depth;
+      const int m = material_of(i);
+      const Material& mat = sc.material_at(m);
+      const double K0 = K0_of(m);
+      double sv = -rho0s[m] * g * depth;
+      if (!overburden_fix.empty()) sv -= g * overburden_fix[i];
       Mat3<double> s = Mat3<double>::Zero();
       s(0, 0) = s(2, 2) = K0 * sv;
       s(1, 1) = sv;
-      const double eps0 = initial_plastic_strain<LodeShape::SmoothMohrCoulomb>(fp, s, mat.e0);
+      const double eps0 = initial_plastic_strain<LodeShape::SmoothMohrCoulomb>(mat.params.f, s, mat.e0);
       if (!(eps0 >= 0))
         fail("initial_stress.K0", "the geostatic state with K0 = " + fmt(K0) + " lies outside the yield surface");
       const double v6[6] = {s(0, 0), s(1, 1), s(2, 2), 0, 0, 0};
@@ -403,12 +457,18 @@ SceneSetup make_setup(const Scene& sc) {
     }
   }
 
-  // Stability of a fixed step: P-wave speed at the deepest point of the at-rest column.
-  {
-    const double p = std::max(rho0 * g * depth_max * (1 + 2 * K0) / 3, fp.p_min);
+  // Stability of a fixed step: P-wave speed at the deepest point of the at-rest column (of
+  // each material's density and stiffness; the smallest limit).
+  const double rho_max = *std::max_element(rho0s.begin(), rho0s.end());
+  for (int m = 0; m < nmat; ++m) {
+    const Material& mat = sc.material_at(m);
+    const FrictionalParams<double>& fp = mat.params.f;
+    const double rho0 = rho0s[m];
+    const double p = std::max((nmat > 1 ? rho_max : rho0) * g * depth_max * (1 + 2 * K0_of(m)) / 3, fp.p_min);
     const ElasticModuli<double> c = elastic_moduli(fp, p, mat.e0);
     const double wave = std::sqrt((c.K + 4.0 / 3.0 * c.G) / rho0);
     const double limit = sc.h / wave;
+    if (m > 0 && limit >= su.dt_estimate) continue;
     su.dt_estimate = limit;
     if (!sc.adaptive && sc.dt > limit)
       fail("time.dt", fmt(sc.dt) + " s is above the stability limit h / c_p = " + fmt(limit) +
@@ -438,6 +498,11 @@ SceneSetup make_setup(const Scene& sc) {
     }
   }
   for (const Stage& st : sc.stages) su.has_boundary = su.has_boundary || st.gate.has_value();
+  // Several materials run the ensembles' kernels (kernels.hpp, Members), compiled for 2D
+  // scenes with boundary code.
+  if (nmat > 1 && (D != 2 || !su.has_boundary))
+    fail("material", "several materials are compiled for 2D scenes with a wall, a base or a gate (this one is " +
+                         std::to_string(D) + "D" + (su.has_boundary ? "" : " without one") + ")");
   // Friction and lifting gates: their nodes are flagged (kContactNode) and a ContactTable
   // follows the stage's masks (boundary.hpp).
   const bool friction = std::any_of(sc.walls.begin(), sc.walls.end(), [](const Wall& w) { return w.mu.has_value(); }) ||

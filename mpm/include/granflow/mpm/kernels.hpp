@@ -46,6 +46,11 @@ inline constexpr std::uint32_t kSeparatedFlag = 1u << 7;
 // particles' initial state, and in their masks and tables (friction, gate speed); the grid
 // description, the step and the stages are shared. Sorting keys put member k before k + 1,
 // so a slot's member stays slot / P when particles are reordered.
+// Several materials in one scene run the same path: each member has `materials` entries of
+// values, and a point's entry is k * materials + material[p] (its material index, kept with
+// the point when particles are reordered); the materials of a member share its grid block,
+// and its grid update reads entry k * materials (mass_eps and mass_floor, the same for all of
+// the member's entries). A single run of several materials is one member.
 template <class Params, class S>
 struct MemberValues {
   Params mp;
@@ -55,12 +60,18 @@ struct MemberValues {
 template <class Params, class S>
 struct Members {
   int count = 1;
+  int materials = 1;   // entries of values per member (in count's padding: kernel parameters keep their size
+                       // but for the pointer `material`)
   long particles = 0;  // per member (P)
   long nodes = 0;      // per member (G)
   long mask_stride = 0;
-  const MemberValues<Params, S>* values = nullptr;  // count entries
+  const MemberValues<Params, S>* values = nullptr;  // count * materials entries
   const std::uint32_t* dead = nullptr;  // non-zero: the member failed earlier; its points are skipped
+  const std::uint8_t* material = nullptr;  // per point (slot): material index; null with one material
   GF_HDI int of_particle(long p) const { return static_cast<int>(p / particles); }
+  // Entry of `values` for point p of member k, and the entry of member k's grid update.
+  GF_HDI int value_index(int k, long p) const { return material ? k * materials + material[p] : k * materials; }
+  GF_HDI int node_values(int k) const { return k * materials; }
   GF_HDI int of_node(long I) const { return static_cast<int>(I / nodes); }
   GF_HDI bool skipped(int k) const { return dead != nullptr && dead[k] != 0u; }
 };
@@ -86,10 +97,11 @@ struct StepParams {
   Members<typename Model::Params, S> members;  // ensembles only (kMembers instantiations)
 };
 
-// Member k's view of the step parameters and of the grid (node indices local to the member).
+// The step parameters with entry i of the members' values (Members::value_index, node_values),
+// and member k's view of the grid (node indices local to the member).
 template <int D, class S, class Model>
-GF_HDI void apply_member(StepParams<D, S, Model>& sp, int k) {
-  const MemberValues<typename Model::Params, S>& v = sp.members.values[k];
+GF_HDI void apply_member(StepParams<D, S, Model>& sp, int i) {
+  const MemberValues<typename Model::Params, S>& v = sp.members.values[i];
   sp.mp = v.mp;
   sp.rho_p = v.rho_p;
   sp.mass_eps = v.mass_eps;

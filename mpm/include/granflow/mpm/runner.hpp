@@ -48,11 +48,17 @@ struct SceneSetup {
   // spacing).
   std::vector<double> seeded_volume, geometric_volume;
   std::vector<long> tracked;    // particle index per scene.tracks entry
+  // Per point: its body (scene.bodies) and, with two or more materials, its material index
+  // (Scene::material_at; empty with one). Ensembles: member after member, as the particles.
+  std::vector<int> point_body;
+  std::vector<std::uint8_t> point_material;
   double dt_estimate = 0;       // h / c_p of the at-rest material (first adaptive step: cfl times this)
   // Ensembles (make_ensemble_setup, ensemble.hpp): `members` copies of the grid above, each
   // with its particles (particles holds them member after member, particles.n / members each),
   // its material and its stage blocks (stage_masks[s] holds them mask_stride bytes apart);
   // tracked indices are those of member 0. A single run has members = 1 and none of these.
+  // member_materials: the materials of member 0, then of member 1, ... (scene.material_count()
+  // each).
   int members = 1;
   std::vector<Material> member_materials;
   long mask_stride = 0;
@@ -146,6 +152,7 @@ struct Frame {
   std::vector<double> x, v;  // component-major
   std::vector<double> T;     // always (zero for the frictional-only model)
   std::vector<double> p, q, eps_pd, eta_c, K_col, e, sxx, syy, sxy;  // full frames only
+  std::vector<int> material, body;  // per point ids (the driver's frames; empty: not written)
   std::vector<PointDiagnostics> subset;  // light frames: one per requested particle
 };
 

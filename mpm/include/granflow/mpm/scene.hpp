@@ -108,12 +108,14 @@ struct Body {
   std::vector<double> poly_x, poly_y;
   std::shared_ptr<const io::Raster> top, bottom;
   std::vector<double> plan_x, plan_z;
+  int material = 0;  // index of its material (Scene::material_at)
   bool is_polygon() const { return !poly_x.empty(); }
   bool is_release() const { return top != nullptr; }
 };
 
 struct Material {
   std::string name;                   // parameter-set name or file, for the record
+  std::string label;                  // a [[material]] table's name ("": the single [material])
   ModelKind model = ModelKind::PhaseTransition;
   PhaseTransitionParams<double> params;  // the frictional-only model uses params.f and c.rho_p
   double e0 = 0;
@@ -147,8 +149,9 @@ struct OutputSpec {
 
 // The point arrays a VTU frame may carry (output.fields), in the order they are written.
 inline const std::vector<std::string>& frame_field_names() {
-  static const std::vector<std::string> names = {"velocity", "p",   "q", "eps_pd",   "T",        "eta_c",
-                                                 "K_col",    "e",   "sigma_xx", "sigma_yy", "sigma_xy"};
+  static const std::vector<std::string> names = {"velocity", "p",        "q",        "eps_pd",   "T",
+                                                 "eta_c",    "K_col",    "e",        "sigma_xx", "sigma_yy",
+                                                 "sigma_xy", "material", "body"};
   return names;
 }
 
@@ -187,7 +190,10 @@ struct Scene {
   bool adaptive = false;
   double cfl = 0.5;
 
+  // Material 0: the scene's single [material], or its first [[material]] table; the others
+  // follow in other_materials (material i > 0 is other_materials[i - 1]). One model for all.
   Material material;
+  std::vector<Material> other_materials;
   InitialStress initial;
   std::vector<Body> bodies;
   std::vector<Wall> walls;
@@ -203,6 +209,16 @@ struct Scene {
   std::map<std::string, long> lines;  // scene files: line of each key make_setup may name
   // --set assignments applied over the file, as given and in order (a restart must repeat them)
   std::vector<std::string> overrides;
+
+  int material_count() const { return 1 + static_cast<int>(other_materials.size()); }
+  const Material& material_at(int i) const { return i == 0 ? material : other_materials.at(i - 1); }
+  Material& material_at(int i) { return i == 0 ? material : other_materials.at(i - 1); }
+  // Index of the material labelled `label`; -1 when none is.
+  int material_index(const std::string& label) const {
+    for (int i = 0; i < material_count(); ++i)
+      if (material_at(i).label == label) return i;
+    return -1;
+  }
 
   double duration() const {
     double t = 0;

@@ -20,8 +20,13 @@ struct SceneOverrides {
   // parameter set (io::apply_override); any other KEY is a scene key: a dotted path such as
   // grid.h, time.adaptive or solver.precision, with [i] for an entry of an array of tables
   // (stage[1].duration, body[0].max). VALUE is a TOML value (0.0025, true, [0.6, 0.16], "x");
-  // a bare word such as frictional is read as a string.
+  // a bare word such as frictional is read as a string. NAME:KEY=VALUE addresses the
+  // [[material]] named NAME: its parameter set (NAME:frictional.phi_c_deg=30) or a key of its
+  // table (NAME:e0=0.8). A scene with two or more materials refuses a parameter-set KEY
+  // without NAME.
   std::vector<std::string> sets;
+  // NAME=SET: the parameter set of the [[material]] named NAME (--params NAME=SET).
+  std::vector<std::string> material_params;
 };
 
 // The first parts of --set keys that go to the parameter set, not to the scene.
