@@ -98,7 +98,7 @@ TEST(FlowCurves, JointJobScoresAndCrossValidatesAsRecorded) {
   EXPECT_LT(wf, 0.6 * base.report.fitted[worst_group(base.report.fitted, 0)].rmse[0]);
   EXPECT_LT(wg, 0.6 * worst(base.report.leave_one_group));
   EXPECT_LT(wfr, 0.5 * worst(base.report.leave_one_friction));
-  EXPECT_LT(joint.seconds, 5.0);  // goal: joint job <= 5 s on 2 cores, tables <= 60 s (here both)
+  // The job's time (goal <= 5 s on 2 cores) is a benchmark, not asserted here: docs/calibration_results.md
 }
 
 TEST(FlowCurves, CrossValidationTableErrorsNameTheKey) {
