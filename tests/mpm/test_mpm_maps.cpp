@@ -276,6 +276,65 @@ TEST(TerrainMaps, MapCellJoinsRasterCellsAndEndsTheStripes) {
               mj.at(mj.nrows - 1 - 5, 5));
 }
 
+// A 2D scene over a base gets the maps as a profile along x (deposit_profile.csv, bins of h or
+// output.map_cell): the CI-sized column collapsing on a level base. The bins hold the column's
+// whole area (thickness times bin width), the column's bins saw its height, max_depth is not
+// below the final thickness anywhere, and deposit.csv is per unit width (length, area).
+TEST(TerrainMaps, TwoDimensionalRunOverABaseWritesProfiles) {
+  for (double bin : {0.0, 0.04}) {
+    Scene sc = test::tiny_column(ModelKind::Frictional);
+    sc.stages[1].duration = 0.15;
+    sc.output.times = {0.15};
+    BaseLine b;
+    b.x = {sc.origin[0], sc.origin[0] + sc.size[0]};
+    b.y = {sc.origin[1], sc.origin[1]};
+    sc.base = b;
+    sc.output.map_cell = bin;
+    const SceneSetup su = make_setup(sc);
+    Scratch s(bin > 0 ? "profile_joined" : "profile");
+    const RunSummary res = run_to(su, s.dir);
+    ASSERT_TRUE(res.ok) << res.message;
+    std::istringstream in(read_text(s.dir / "deposit_profile.csv"));
+    std::string line;
+    std::getline(in, line);
+    EXPECT_EQ(line, "x,base_y,deposit_thickness,max_speed,max_depth");
+    const double w = bin > 0 ? bin : sc.h;
+    double area = 0, column_depth = 0, fastest = 0;
+    long rows = 0;
+    while (std::getline(in, line)) {
+      std::vector<double> r;
+      std::istringstream ls(line);
+      for (std::string cell; std::getline(ls, cell, ',');) r.push_back(std::stod(cell));
+      ASSERT_EQ(r.size(), 5u) << line;
+      EXPECT_NEAR(r[0], sc.origin[0] + (rows + 0.5) * w, 1e-12);
+      EXPECT_NEAR(r[1], sc.origin[1], 1e-12);
+      EXPECT_GE(r[4], r[2]) << line;
+      area += r[2] * w;
+      if (r[0] < 0.1) column_depth = std::max(column_depth, r[4]);
+      fastest = std::max(fastest, r[3]);
+      ++rows;
+    }
+    EXPECT_EQ(rows, std::lround(sc.size[0] / w));
+    EXPECT_NEAR(area, 0.2 * 0.1, 1e-12);  // the column's seeded area
+    EXPECT_NEAR(column_depth, 0.1, 1e-9);
+    EXPECT_GT(fastest, 0.3);
+    std::istringstream dep(read_text(s.dir / "deposit.csv"));
+    std::getline(dep, line);
+    EXPECT_EQ(line, "t,t_flow,length,area,extent");
+    std::string last;
+    while (std::getline(dep, line)) last = line;
+    std::vector<double> r;
+    std::istringstream ls(last);
+    for (std::string cell; std::getline(ls, cell, ',');) r.push_back(std::stod(cell));
+    ASSERT_EQ(r.size(), 5u);
+    EXPECT_LE(r[3], 0.02 + 1e-12);  // area per unit width: the bins at least one spacing thick
+    EXPECT_GT(r[3], 0.015);
+    EXPECT_GT(r[4], 0.22);  // it spread beyond the column's 0.2 m
+    std::printf("2D profile, bins %.2f m: final deposit length %.3f m, area %.5f m^2/m, extent %.3f m\n", w, r[2], r[3],
+                r[4]);
+  }
+}
+
 // Without terrain nothing is measured or written; a checkpoint's maps must fit the footprint.
 TEST(TerrainMaps, OnlyTerrainRunsHaveMaps) {
   const SceneSetup plain = make_setup(test::tiny_column(ModelKind::Frictional));

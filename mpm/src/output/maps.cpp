@@ -12,8 +12,36 @@
 
 namespace granflow::mpm {
 
+namespace {
+
+// The base polyline's height at x, level beyond its ends.
+double base_height(const BaseLine& b, double x) {
+  if (x <= b.x.front()) return b.y.front();
+  if (x >= b.x.back()) return b.y.back();
+  const size_t k = static_cast<size_t>(std::upper_bound(b.x.begin(), b.x.end(), x) - b.x.begin());
+  const double w = (x - b.x[k - 1]) / (b.x[k] - b.x[k - 1]);
+  return b.y[k - 1] + w * (b.y[k] - b.y[k - 1]);
+}
+
+double plan_z(const Frame& fr, long i) { return fr.dim == 3 ? fr.x[2 * fr.n + i] : 0.0; }
+
+}  // namespace
+
 TerrainMaps::TerrainMaps(const SceneSetup& su) : su_(&su) {
   const Scene& sc = su.scene;
+  if (sc.dim == 2 && sc.base) {  // a profile along the base: bins of output.map_cell (else h) from the grid's left edge
+    profile_ = true;
+    cellsize_ = sc.output.map_cell > 0 ? sc.output.map_cell : sc.h;
+    ncols_ = std::max(1L, static_cast<long>(std::ceil(sc.size[0] / cellsize_ - 1e-9)));
+    nrows_ = 1;
+    col0 = row0 = row1 = 0;
+    col1 = ncols_ - 1;
+    point_volume_ = su.spacing * su.spacing;  // per unit width
+    st_.max_speed.assign(static_cast<size_t>(ncols_), 0.0);
+    st_.max_depth.assign(static_cast<size_t>(ncols_), 0.0);
+    active_ = true;
+    return;
+  }
   if (sc.dim != 3 || !sc.terrain || !sc.terrain->raster) return;
   const io::Raster& r = *sc.terrain->raster;
   east0_ = sc.terrain->origin[0];
@@ -50,6 +78,11 @@ TerrainMaps::TerrainMaps(const SceneSetup& su) : su_(&su) {
 }
 
 long TerrainMaps::cell_of(double x, double z) const {
+  if (profile_) {
+    double c = std::floor((x - su_->scene.origin[0]) / cellsize_);
+    if (std::isnan(c)) c = 0;
+    return static_cast<long>(std::clamp(c, 0.0, double(ncols_ - 1)));
+  }
   const io::Raster& r = *su_->scene.terrain->raster;
   const double cs = cellsize_;
   double c = std::floor((east0_ + x - r.west) / cs), k = std::floor((north0_ + z - r.south) / cs);
@@ -65,8 +98,8 @@ std::vector<double> TerrainMaps::thickness(const Frame& fr) const {
   std::vector<double> th(st_.max_depth.size(), 0.0);
   if (!active_) return th;
   const long n = fr.n;
-  for (long i = 0; i < n; ++i) th[cell_of(fr.x[i], fr.x[2 * n + i])] += point_volume_;
-  for (double& v : th) v /= cellsize_ * cellsize_;
+  for (long i = 0; i < n; ++i) th[cell_of(fr.x[i], plan_z(fr, i))] += point_volume_;
+  for (double& v : th) v /= cell_measure();
   return th;
 }
 
@@ -76,12 +109,12 @@ void TerrainMaps::sample(double t, double t_flow, const Frame& fr) {
   const long n = fr.n;
   std::vector<long> cell(n);
   for (long i = 0; i < n; ++i) {
-    cell[i] = cell_of(fr.x[i], fr.x[2 * n + i]);
+    cell[i] = cell_of(fr.x[i], plan_z(fr, i));
     double v2 = 0;
-    for (int d = 0; d < 3; ++d) v2 += fr.v[d * n + i] * fr.v[d * n + i];
+    for (int d = 0; d < fr.dim; ++d) v2 += fr.v[d * n + i] * fr.v[d * n + i];
     st_.max_speed[cell[i]] = std::max(st_.max_speed[cell[i]], std::sqrt(v2));
   }
-  const double cs = cellsize_, s = su_->spacing;
+  const double a = cell_measure(), s = su_->spacing;
   DepositRow row;
   row.t = t;
   row.t_flow = t_flow;
@@ -90,16 +123,16 @@ void TerrainMaps::sample(double t, double t_flow, const Frame& fr) {
     st_.max_depth[c] = std::max(st_.max_depth[c], th[c]);
     if (th[c] >= s * (1 - 1e-9)) {  // at least one point spacing thick
       deposit[c] = 1;
-      row.area += cs * cs;
-      row.volume += th[c] * cs * cs;
+      row.area += a;
+      row.volume += th[c] * a;
     }
   }
   double lo = std::numeric_limits<double>::max(), hi = -lo;
   for (long i = 0; i < n; ++i) {
     if (!deposit[cell[i]]) continue;
-    const double a = fr.x[i] * dir_x_ + fr.x[2 * n + i] * dir_z_;
-    lo = std::min(lo, a);
-    hi = std::max(hi, a);
+    const double along = fr.x[i] * dir_x_ + plan_z(fr, i) * dir_z_;
+    lo = std::min(lo, along);
+    hi = std::max(hi, along);
   }
   if (hi >= lo) row.extent = hi - lo + s;  // half a spacing beyond the outermost points each way
   st_.deposit.push_back(row);
@@ -134,6 +167,20 @@ double TerrainMaps::terrain_mean(long row, long col) const {
 
 void TerrainMaps::write_maps(const std::string& dir, const Frame& final_frame) const {
   if (!active_) return;
+  if (profile_) {
+    const std::vector<double> th = thickness(final_frame);
+    const BaseLine& b = *su_->scene.base;
+    std::ostringstream os;
+    os.precision(9);
+    os << "x,base_y,deposit_thickness,max_speed,max_depth\n";
+    for (long c = 0; c < ncols_; ++c) {
+      const double x = su_->scene.origin[0] + (c + 0.5) * cellsize_;
+      const size_t k = static_cast<size_t>(c);
+      os << x << ',' << base_height(b, x) << ',' << th[k] << ',' << st_.max_speed[k] << ',' << st_.max_depth[k] << '\n';
+    }
+    io::write_file(dir + "/deposit_profile.csv", os.str(), io::Durability::Buffered);
+    return;
+  }
   const io::Raster& terrain = *su_->scene.terrain->raster;
   const std::string folder = dir + "/maps";
   io::make_folder(folder);
@@ -166,7 +213,7 @@ void TerrainMaps::write_deposit_csv(const std::string& dir) const {
   if (!active_) return;
   std::ostringstream os;
   os.precision(8);
-  os << "t,t_flow,area,volume,extent\n";
+  os << (profile_ ? "t,t_flow,length,area,extent\n" : "t,t_flow,area,volume,extent\n");
   for (const DepositRow& r : st_.deposit)
     os << r.t << ',' << r.t_flow << ',' << r.area << ',' << r.volume << ',' << r.extent << '\n';
   io::write_file(dir + "/deposit.csv", os.str(), io::Durability::Buffered);

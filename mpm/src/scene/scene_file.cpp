@@ -554,8 +554,11 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
         o->fail("deposit_direction", "needs a plan direction [dx, dz] of two numbers, not both zero");
       sc.output.deposit_direction = d;
     }
-    if (o->has("map_cell")) {
-      if (D != 3 || !sc.terrain) o->fail("map_cell", "maps need a 3D scene with [terrain]");
+    if (o->has("map_cell") && D == 2) {  // the bins of a profile along the base
+      if (!sc.base) o->fail("map_cell", "maps need a 3D scene with [terrain] or a 2D one with [base]");
+      sc.output.map_cell = o->number("map_cell", Bounds::positive());
+    } else if (o->has("map_cell")) {
+      if (!sc.terrain) o->fail("map_cell", "maps need a 3D scene with [terrain] or a 2D one with [base]");
       const double c = o->number("map_cell", Bounds::positive());
       const double cs = sc.terrain->raster->cellsize, k = std::round(c / cs);
       auto g = [](double v) {

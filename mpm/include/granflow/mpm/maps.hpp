@@ -1,4 +1,5 @@
-// Maps and deposit measures of a 3D terrain run (docs/mpm_terrain.md, "Maps"): per cell of the
+// Maps and deposit measures of a 3D terrain run (docs/mpm_terrain.md, "Maps"), or profiles of a
+// 2D run over a base: per cell of the
 // terrain raster inside the grid's footprint, the bulk thickness (point volumes over the cell's
 // area), and the largest speed and thickness over the run's samples; and per sample the
 // deposit's area, volume and extent along a plan direction. Host-side, from frames.
@@ -24,7 +25,9 @@ struct MapsState {
 
 class TerrainMaps {
  public:
-  // Inactive (nothing measured or written) unless the scene is 3D with a terrain.
+  // Inactive (nothing measured or written) unless the scene is 3D with a terrain, or 2D with a
+  // base: then the "maps" are one row of bins along x (deposit_profile.csv), and deposit.csv's
+  // area and volume are a length and an area per unit width.
   explicit TerrainMaps(const SceneSetup& su);
   bool active() const { return active_; }
 
@@ -53,6 +56,8 @@ class TerrainMaps {
  private:
   long cell_of(double x, double z) const;  // window index of a plan position (clamped)
   double terrain_mean(long row, long col) const;  // mean elevation of a map cell's raster cells
+  double cell_measure() const { return profile_ ? cellsize_ : cellsize_ * cellsize_; }  // m (2D), m^2
+  bool profile_ = false;  // 2D with [base]: one row of bins along x, deposit_profile.csv
   long block_ = 1, ncols_ = 0, nrows_ = 0;
   double cellsize_ = 0;
   bool active_ = false;
