@@ -1,6 +1,7 @@
 // Several materials in one scene (issue 34) on the CPU twin: blocks of two materials on one grid
-// equal their single-material runs bit for bit, an ensemble of such scenes equals its members'
-// single runs, and a block on a slope slides on a weak layer and stays on a strong one.
+// equal their single-material runs bit for bit (2D, 3D, and without boundary code), an ensemble
+// of such scenes equals its members' single runs, and a block on a slope slides on a weak layer
+// and stays on a strong one.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -56,9 +57,38 @@ Scene two_blocks(ModelKind model, ShapeKind shape) {
   return sc;
 }
 
-// Block `which` alone, as a scene of its one material.
-Scene one_block(ModelKind model, ShapeKind shape, int which) {
-  const Scene two = two_blocks(model, shape);
+// The blocks in 3D: 40 x 8 x 2 cm between free-slip side walls (z), 0.01 s; blocks of
+// 6 x 4 x 2 cm, 18 cells apart.
+Scene two_blocks_3d(ModelKind model, ShapeKind shape) {
+  Scene sc = two_block_base(model, shape);
+  sc.dim = 3;
+  sc.origin = {0.0, 0.0, 0.0};
+  sc.size = {0.40, 0.08, 0.02};
+  sc.gravity = {0.0, -9.81, 0.0};
+  sc.walls[1].position = 0.40;
+  sc.walls.push_back({2, false, 0.0, false, "wall[3].side"});
+  sc.walls.push_back({2, true, 0.02, false, "wall[4].side"});
+  sc.runout_x = {0.0, 0.40};
+  sc.stages[0].duration = 0.01;
+  Body a = box(0.02, 0.0, 0.08, 0.04, 0), b = box(0.26, 0.0, 0.32, 0.04, 1);
+  for (Body* p : {&a, &b}) {
+    p->box_min.push_back(0.0);
+    p->box_max.push_back(0.02);
+  }
+  sc.bodies = {a, b};
+  return sc;
+}
+
+// The blocks without a wall, a base or a gate: in free fall from 5 cm above the grid's bottom.
+Scene two_falling_blocks(ModelKind model, ShapeKind shape) {
+  Scene sc = two_block_base(model, shape);
+  sc.walls.clear();
+  sc.bodies = {box(0.02, 0.05, 0.10, 0.11, 0), box(0.30, 0.05, 0.38, 0.11, 1)};
+  return sc;
+}
+
+// Block `which` of `two` alone, as a scene of its one material.
+Scene one_block(const Scene& two, int which) {
   Scene sc = two;
   sc.material = two.material_at(which);
   sc.material.label.clear();
@@ -94,10 +124,10 @@ void expect_same_points(const HostParticles& all, long from, const HostParticles
   cmp(all.s, one.s, 1, "sqrt T");
 }
 
-void expect_blocks_equal_single_runs(ModelKind model, ShapeKind shape) {
-  const SceneSetup two = make_setup(two_blocks(model, shape));
+void expect_blocks_equal_single_runs(const Scene& scene) {
+  const SceneSetup two = make_setup(scene);
   ASSERT_EQ(two.point_material.size(), static_cast<size_t>(two.particles.n));
-  const SceneSetup a = make_setup(one_block(model, shape, 0)), b = make_setup(one_block(model, shape, 1));
+  const SceneSetup a = make_setup(one_block(scene, 0)), b = make_setup(one_block(scene, 1));
   ASSERT_TRUE(a.point_material.empty());  // one material: today's kernels
   ASSERT_EQ(a.particles.n + b.particles.n, two.particles.n);
   const long steps = std::lround(two.scene.stages[0].duration / two.scene.dt);
@@ -110,11 +140,40 @@ void expect_blocks_equal_single_runs(ModelKind model, ShapeKind shape) {
 }
 
 TEST(MpmMaterials, TwoBlocksEqualTheirSingleMaterialRunsBitForBit) {
-  expect_blocks_equal_single_runs(ModelKind::PhaseTransition, ShapeKind::Linear);
+  expect_blocks_equal_single_runs(two_blocks(ModelKind::PhaseTransition, ShapeKind::Linear));
 }
 
 TEST(MpmMaterials, FrictionalQuadraticBlocksEqualTheirSingleMaterialRuns) {
-  expect_blocks_equal_single_runs(ModelKind::Frictional, ShapeKind::QuadraticBSpline);
+  expect_blocks_equal_single_runs(two_blocks(ModelKind::Frictional, ShapeKind::QuadraticBSpline));
+}
+
+// 3D (the fp64 kMembers instantiations of 3D): 384 points per block, 200 steps.
+TEST(MpmMaterials, ThreeDBlocksEqualTheirSingleMaterialRunsBitForBit) {
+  expect_blocks_equal_single_runs(two_blocks_3d(ModelKind::Frictional, ShapeKind::QuadraticBSpline));
+  expect_blocks_equal_single_runs(two_blocks_3d(ModelKind::PhaseTransition, ShapeKind::Linear));
+}
+
+// No boundary code in the scene: the several-material run takes the instantiation with it
+// (masks that hold no node), its single runs the one without.
+TEST(MpmMaterials, FallingBlocksWithoutWallsEqualTheirSingleMaterialRuns) {
+  const Scene sc = two_falling_blocks(ModelKind::Frictional, ShapeKind::QuadraticBSpline);
+  const SceneSetup su = make_setup(sc);
+  EXPECT_FALSE(su.has_boundary);
+  ASSERT_EQ(su.stage_masks.size(), 1u);
+  EXPECT_EQ(su.stage_masks[0], std::vector<std::uint8_t>(su.n_nodes, 0));  // no node held, no contact table
+  expect_blocks_equal_single_runs(sc);
+}
+
+// 3D scenes of several materials are compiled in fp64 only.
+TEST(MpmMaterials, ThreeDSeveralMaterialsRefuseFloatPrecisions) {
+  Scene sc = two_blocks_3d(ModelKind::Frictional, ShapeKind::Linear);
+  sc.precision = Precision::Mixed;
+  try {
+    make_setup(sc);
+    FAIL() << "mixed precision accepted";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.key(), "solver.precision");
+  }
 }
 
 // An ensemble of two-material scenes: member k's values at k * materials + material.

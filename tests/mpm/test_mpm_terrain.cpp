@@ -404,6 +404,55 @@ TEST(Terrain, LayerOnA20DegreeSlopeCarriesItsWeight) {
   EXPECT_NEAR(m_all / e_all, 1.0, 0.25);
 }
 
+// Several materials on frictional terrain (3D kMembers kernels with the terrain pass): two slabs
+// 16 cm apart on the 30 deg raster, of materials whose points weigh the same (rho_p / (1 + e0) =
+// 1000; the light-node thresholds come from the smallest mass), slide for 0.05 s; each equals its
+// single-material run bit for bit.
+TEST(Terrain, TwoMaterialsOnTheTerrainEqualTheirSingleRuns) {
+  const double tn = std::tan(30 * kDeg), dx = std::cos(30 * kDeg), dz = std::sin(30 * kDeg);
+  auto ground = raster(-0.05, -0.05, 0.05, 12, 12, [&](double e, double n) { return -tn * (e * dx + n * dz); });
+  Scene two = terrain_scene({0.5, 0.48, 0.5}, 0.02, ground, {0.0, 0.0, -0.46}, 0.2);
+  two.stages[0].duration = 0.05;
+  two.material.label = "a";
+  two.material.e0 = 0.75;
+  two.material.params.c.rho_p = 1750;
+  Material b = two.material;
+  b.label = "b";
+  b.e0 = 0.875;
+  b.params.c.rho_p = 1875;
+  b.params.f.phi_c -= 8 * kDeg;
+  two.other_materials = {b};
+  two.bodies = {slab_on_terrain(two, 0.04, 0.04, 0.12), slab_on_terrain(two, 0.04, 0.28, 0.36)};
+  two.bodies[1].material = 1;
+  auto run_steps = [](const SceneSetup& su) {
+    auto r = make_cpu_runner(su);
+    const StepResult res = r->advance(std::lround(su.scene.stages[0].duration / su.scene.dt), su.scene.dt);
+    EXPECT_TRUE(res.ok) << "particle " << res.particle;
+    HostParticles out;
+    r->download(out);
+    return out;
+  };
+  const SceneSetup su = make_setup(two);
+  ASSERT_FALSE(su.terrain.empty());
+  const HostParticles all = run_steps(su);
+  long from = 0;
+  for (int k = 0; k < 2; ++k) {
+    Scene one = two;
+    one.material = two.material_at(k);
+    one.material.label.clear();
+    one.other_materials.clear();
+    one.bodies = {two.bodies[k]};
+    one.bodies[0].material = 0;
+    const HostParticles p = run_steps(make_setup(one));
+    for (int c = 0; c < 3; ++c)
+      EXPECT_EQ(0, std::memcmp(all.x.data() + c * all.n + from, p.x.data() + c * p.n, p.n * sizeof(double)))
+          << "slab " << k << ": position " << c;
+    EXPECT_EQ(0, std::memcmp(all.sig.data() + from, p.sig.data(), p.n * sizeof(double))) << "slab " << k << ": stress";
+    from += p.n;
+  }
+  EXPECT_EQ(from, all.n);
+}
+
 // Ensembles are 2D: members of a terrain scene are refused naming the key.
 TEST(Terrain, EnsemblesRefuseTerrain) {
   auto ground = raster(-0.05, -0.05, 0.1, 6, 6, [](double, double) { return 0.0; });

@@ -15,7 +15,8 @@
 // others as their single runs. --ensembles runs these cases only; --short shortens the collapse.
 // Terrain (3D builds, GRANFLOW_MPM_CUDA_3D): a slab sliding with Coulomb friction down a planar
 // raster dipping 30 deg towards 30 deg off x (the terrain pass, terrain_kernel), same tolerances.
-// Several materials: the column as two layers of different sands, GPU against the CPU twin;
+// Several materials: the column as two layers of different sands (also without walls), and in
+// 3D builds two blocks of different sands on the terrain, GPU against the CPU twin;
 // --materials runs these cases only.
 #include <algorithm>
 #include <chrono>
@@ -379,9 +380,12 @@ bool terrain_case(const char* cuda, bool short_run, double tol) {
 // The CI column as two layers (issue 34): the lower 4 cm a looser, weaker sand (e0 + 0.03,
 // phi_c - 4 deg, rho_p 2500), the rest as before; the GPU (the kMembers kernels with a material
 // index per slot, sorted with the points) against the CPU twin, same tolerances.
-bool materials_case(ModelKind model, ShapeKind shape, const char* cuda, bool short_run, double tol) {
+// no_walls: no wall or gate (the kMembers kernels with masks that hold nothing): the layered
+// block, 10 cm off the grid's sides and 8 cm above its bottom (grid 25 cm high), falls for 0.07 s.
+bool materials_case(ModelKind model, ShapeKind shape, const char* cuda, bool short_run, double tol,
+                    bool no_walls = false) {
   Scene sc = small_column_scene(model, shape);
-  sc.name += ", two layers";
+  sc.name += no_walls ? ", two layers, no walls" : ", two layers";
   sc.material.label = "upper";
   Material lower = sc.material;
   lower.label = "lower";
@@ -393,8 +397,20 @@ bool materials_case(ModelKind model, ShapeKind shape, const char* cuda, bool sho
   b0.box_max[1] = 0.04;
   b0.material = 1;
   b1.box_min[1] = 0.04;
+  if (no_walls) {
+    sc.walls.clear();
+    for (Body* b : {&b0, &b1})
+      for (int d = 0; d < 2; ++d) {
+        b->box_min[d] += d == 0 ? 0.1 : 0.08;
+        b->box_max[d] += d == 0 ? 0.1 : 0.08;
+      }
+    for (Stage& st : sc.stages) st.gate.reset();
+    sc.size[1] = 0.25;
+    sc.stages[0].duration = 0.02;
+    sc.stages[1].duration = 0.05;
+  }
   sc.bodies = {b0, b1};
-  if (short_run) sc.stages.back().duration = 0.1;
+  if (short_run && !no_walls) sc.stages.back().duration = 0.1;
   const SceneSetup su = make_setup(sc);
   RunOptions opt;
   opt.progress = false;
@@ -408,6 +424,64 @@ bool materials_case(ModelKind model, ShapeKind shape, const char* cuda, bool sho
   long far = 0;
   for (long i = 0; i < ha.n; ++i)
     if (std::hypot(ha.x[i] - hb.x[i], ha.x[ha.n + i] - hb.x[ha.n + i]) > 0.25 * sc.h) ++far;
+  const double rel = std::fabs(b.final.runout - a.final.runout) / a.final.runout;
+  const double relh = std::fabs(b.final.height - a.final.height) / a.final.height;
+  const bool ok = a.ok && b.ok && rel <= tol && relh <= tol && far <= ha.n / 10;
+  std::printf("%-55s %-9s %s cpu run-out %.5f m height %.5f m (%.2f s) | gpu run-out %.5f m height %.5f m (%.2f s, "
+              "%s) | rel. diff %.2e / %.2e | %ld of %ld points > h/4 apart %s\n",
+              sc.name.c_str(), shape == ShapeKind::Linear ? "linear" : "quadratic", cuda, a.final.runout,
+              a.final.height, a.wall_s, b.final.runout, b.final.height, b.wall_s, b.device.c_str(), rel, relh, far,
+              ha.n, ok ? "OK" : "FAIL");
+  if (!a.ok) std::printf("  cpu: %s\n", a.message.c_str());
+  if (!b.ok) std::printf("  gpu: %s\n", b.message.c_str());
+  return ok;
+}
+
+// 3D (GRANFLOW_MPM_CUDA_3D; skipped, true, without it): the terrain slide of terrain_case as
+// two blocks side by side, the downhill one (x > 0.13 m) a looser, weaker sand (e0 + 0.03,
+// phi_c - 4 deg, rho_p 2650): the 3D kMembers kernels (fp64) with the terrain pass, GPU against
+// the CPU twin, same tolerances.
+bool materials_3d_case(ModelKind model, ShapeKind shape, const char* cuda, bool short_run, double tol) {
+  Scene sc = terrain_slide_scene(short_run ? 0.1 : 0.25);
+  sc.name = "terrain slide, two materials side by side";
+  sc.shape = shape;
+  if (shape == ShapeKind::QuadraticBSpline) sc.transfer = Scene::Transfer::TaylorPic;
+  sc.material = flume_scene(0.04, 1e-4, model, ShapeKind::Linear, 0.1).material;
+  sc.material.label = "uphill";
+  Material down = sc.material;
+  down.label = "downhill";
+  down.e0 += 0.03;
+  down.params.f.phi_c -= 4 * M_PI / 180;
+  down.params.c.rho_p = 2650;
+  sc.other_materials = {down};
+  Body b0 = sc.bodies[0], b1 = sc.bodies[0];
+  b0.plan_x = {0.06, 0.13, 0.13, 0.06};
+  b1.plan_x = {0.13, 0.2, 0.2, 0.13};
+  b1.material = 1;
+  sc.bodies = {b0, b1};
+  const SceneSetup su = make_setup(sc);
+  std::unique_ptr<Runner> gpu;
+  try {
+    gpu = make_cuda_runner(su, cuda_options(cuda));
+  } catch (const std::runtime_error& e) {
+    if (!std::strstr(e.what(), "3D CUDA kernels are not compiled")) throw;
+    std::printf("%s: skipped (%s)\n", sc.name.c_str(), e.what());
+    return true;
+  }
+  RunOptions opt;
+  opt.progress = false;
+  auto cpu = make_cpu_runner(su);
+  const RunSummary a = run(su, *cpu, opt);
+  const RunSummary b = run(su, *gpu, opt);
+  HostParticles ha, hb;
+  cpu->download(ha);
+  gpu->download(hb);
+  long far = 0;
+  for (long i = 0; i < ha.n; ++i) {
+    double d2 = 0;
+    for (int d = 0; d < 3; ++d) d2 += std::pow(ha.x[d * ha.n + i] - hb.x[d * ha.n + i], 2);
+    if (std::sqrt(d2) > 0.25 * sc.h) ++far;
+  }
   const double rel = std::fabs(b.final.runout - a.final.runout) / a.final.runout;
   const double relh = std::fabs(b.final.height - a.final.height) / a.final.height;
   const bool ok = a.ok && b.ok && rel <= tol && relh <= tol && far <= ha.n / 10;
@@ -462,6 +536,9 @@ int main(int argc, char** argv) {
     fails += materials_case(ModelKind::PhaseTransition, ShapeKind::Linear, "", short_run, tol) ? 0 : 1;
     fails += materials_case(ModelKind::Frictional, ShapeKind::QuadraticBSpline, "sort 1, graphs off", short_run, tol) ? 0 : 1;
     fails += materials_case(ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, "sort 7, g2p-split on", short_run, tol) ? 0 : 1;
+    fails += materials_case(ModelKind::Frictional, ShapeKind::Linear, "", short_run, tol, true) ? 0 : 1;
+    fails += materials_3d_case(ModelKind::Frictional, ShapeKind::Linear, "", short_run, tol) ? 0 : 1;
+    fails += materials_3d_case(ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, "sort 1, graphs off", short_run, tol) ? 0 : 1;
   }
   if (materials_only) return fails == 0 ? 0 : 1;
   for (const Case& c : cases) {

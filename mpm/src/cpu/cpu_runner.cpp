@@ -52,7 +52,8 @@ class CpuRunner final : public Runner {
     status_.resize(n_);
     info_.resize(n_);
     for (size_t s = 0; s < masks_.size(); ++s) contacts_.push_back(stage_has_contacts(su, static_cast<int>(s)));
-    if constexpr (kBoundary && !kMembers) {
+    // frictional terrain (3D): in 3D kMembers runs are single runs of several materials
+    if constexpr (kBoundary && (!kMembers || D == 3)) {
       terrain_ = su.terrain;
       terrain_mu_ = su.terrain_mu;
     }

@@ -1,7 +1,8 @@
 // CUDA backend: dispatch to the instantiations of cuda_runner_impl.cuh, compiled in four
 // files (cuda_kernels_*.cu, one per model and shape) so that they build in parallel; the float
 // storage of the mixed and fp32 precisions in four more (cuda_kernels_{mixed,fp32}_*.cu), and
-// ensembles (2D with boundary code) in six, one per precision and model (cuda_kernels_ens_*.cu).
+// ensembles (2D with boundary code) in six, one per precision and model (cuda_kernels_ens_*.cu);
+// with GRANFLOW_MPM_CUDA_3D, 3D scenes of several materials in two (cuda_kernels_mat3d_*.cu).
 #include <cuda_runtime.h>
 
 #include <memory>

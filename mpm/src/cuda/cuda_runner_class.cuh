@@ -33,6 +33,9 @@ class CudaRunner final : public Runner {
   // than 32 bits for large ensembles of large grids.
   using SortKey = std::conditional_t<kMembers, std::uint64_t, std::uint32_t>;
   static constexpr bool kColl = Model::kCollisional;
+  // Frictional terrain (3D): plain runs and, in 3D, the single runs of several materials (3D
+  // kMembers instantiations are never ensembles: one grid block, the terrain's node indices).
+  static constexpr bool kTerrain = kBoundary && (!kMembers || D == 3);
   static constexpr int kElastic = elastic_min_blocks<typename Model::Scalar>(false);
   static constexpr int kElasticCap = elastic_min_blocks<typename Model::Scalar>(true);
 

@@ -106,7 +106,7 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const Sce
     masks_.push_back(d);
     contacts_.push_back(stage_has_contacts(su, static_cast<int>(masks_.size()) - 1));
   }
-  if constexpr (kBoundary && !kMembers) {
+  if constexpr (kTerrain) {
     if (!su.terrain.empty()) {
       n_terrain_ = static_cast<long>(su.terrain.size());
       terrain_mu_ = su.terrain_mu;
@@ -211,11 +211,15 @@ std::unique_ptr<Runner> make_cuda_runner_t(const SceneSetup& su, const CudaOptio
 // boundary code only (runner_common.hpp, dispatch).
 // GF_MPM_CUDA_INSTANTIATE_ENSEMBLE: ensembles (kMembers), 2D with boundary code, storage S
 // (cuda_kernels_ens_*.cu).
+// GF_MPM_CUDA_INSTANTIATE_MATERIALS_3D: single runs of several materials in 3D (kMembers, with
+// boundary code, fp64; cuda_kernels_mat3d_*.cu, compiled only with GRANFLOW_MPM_CUDA_3D).
 #define GF_MPM_CUDA_INSTANTIATE_ONE_M(D, S, MODEL, SHAPE, KB, KM)                                                \
   template std::unique_ptr<granflow::mpm::Runner> granflow::mpm::make_cuda_runner_t<D, S, MODEL, SHAPE, KB, KM>( \
       const granflow::mpm::SceneSetup&, const granflow::mpm::CudaOptions&);
 #define GF_MPM_CUDA_INSTANTIATE_ONE(D, S, MODEL, SHAPE, KB) GF_MPM_CUDA_INSTANTIATE_ONE_M(D, S, MODEL, SHAPE, KB, false)
 #define GF_MPM_CUDA_INSTANTIATE_ENSEMBLE(S, MODEL, SHAPE) GF_MPM_CUDA_INSTANTIATE_ONE_M(2, S, MODEL, SHAPE, true, true)
+#define GF_MPM_CUDA_INSTANTIATE_MATERIALS_3D(MODEL, SHAPE) \
+  GF_MPM_CUDA_INSTANTIATE_ONE_M(3, double, MODEL, SHAPE, true, true)
 #define GF_MPM_CUDA_INSTANTIATE_D(D, MODEL, SHAPE)                 \
   GF_MPM_CUDA_INSTANTIATE_ONE(D, double, MODEL, SHAPE, false) \
   GF_MPM_CUDA_INSTANTIATE_ONE(D, double, MODEL, SHAPE, true)

@@ -420,7 +420,7 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::preload() const
                      reinterpret_cast<const void*>(g2p_elastic_kernel<D, S, Model, Shape, kElasticCap, kMembers>),
                      reinterpret_cast<const void*>(g2p_plastic_kernel<D, S, Model, 256, 1, kMembers>)};
   for (const void* f : k) check(cudaFuncGetAttributes(&a, f), "load kernels");
-  if constexpr (kBoundary && !kMembers)
+  if constexpr (kTerrain)
     if (n_terrain_ > 0) check(cudaFuncGetAttributes(&a, reinterpret_cast<const void*>(terrain_kernel<D, S>)), "load kernels");
 }
 
@@ -452,7 +452,7 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_step(bo
     grid_kernel<D, S, Model, kBoundary, kBoundary, kMembers><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
   else
     grid_kernel<D, S, Model, kBoundary, false, kMembers><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
-  if constexpr (kBoundary && !kMembers)
+  if constexpr (kTerrain)
     if (n_terrain_ > 0)
       terrain_kernel<D, S><<<blocks_for(n_terrain_, kGridBlock), kGridBlock, 0, stream_>>>(gv, terrain_, n_terrain_,
                                                                                          terrain_mu_, ctl_);
@@ -513,7 +513,7 @@ inline std::string CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::config()
   else if constexpr (!kMembers)
     s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GTile, false>, kP2GBlock);
   s += kernel_info("grid update", grid_kernel<D, S, Model, kBoundary, false, kMembers>, kGridBlock);
-  if constexpr (kBoundary && !kMembers)
+  if constexpr (kTerrain)
     if (n_terrain_ > 0) s += kernel_info("terrain friction", terrain_kernel<D, S>, kGridBlock);
   if (split()) {
     if (opt_.g2p_reg_cap)

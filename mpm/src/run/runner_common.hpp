@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <granflow/mpm/kernels.hpp>
@@ -222,7 +223,8 @@ void make_frame(const std::vector<S>& a, long n, const typename Model::Params& m
 // (solver.precision): fp64 S = double, Model<double>; mixed S = float, Model<double>;
 // fp32 S = float, Model<float>. fp32 and mixed are compiled for scenes with boundary code (every
 // scene but free-fall tests has walls): 8 instantiations each instead of 16, per backend.
-// Ensembles (kMembers) are compiled for 2D scenes with boundary code: 4 per precision.
+// Ensembles (kMembers) are compiled for 2D scenes with boundary code: 4 per precision; a single
+// run of several materials also takes them in 2D, and in 3D 4 more in fp64.
 template <class S, class MS, bool kUnbounded, class F>
 auto dispatch_scalar(const SceneSetup& su, F& f) {
   using PT = PhaseTransitionModel<MS>;
@@ -237,11 +239,18 @@ auto dispatch_scalar(const SceneSetup& su, F& f) {
   return f.template run<DIM, S, FR, LinearShape, B, M>(su);
 #define GF_MPM_CASE(DIM, B) GF_MPM_CASE_M(DIM, B, false)
   if (uses_members(su)) {
-    if (sc.dim != 2 || !su.has_boundary)
-      throw SceneError(su.members > 1 ? "dimension" : "material",
-                       su.members > 1 ? "ensembles are compiled for 2D scenes with a wall, a base or a gate"
-                                      : "scenes of several materials are compiled for 2D scenes with a wall, a base "
-                                        "or a gate");
+    if (su.members > 1 && (sc.dim != 2 || !su.has_boundary))
+      throw SceneError("dimension", "ensembles are compiled for 2D scenes with a wall, a base or a gate");
+    // A single run of several materials: with boundary code (a scene without walls has masks
+    // that hold no node, setup.cpp); 3D in fp64 only.
+    if (sc.dim == 3) {
+      if constexpr (std::is_same_v<S, double>) {  // fp64
+        GF_MPM_CASE_M(3, true, true)
+      } else {
+        throw SceneError("solver.precision", std::string("\"") + precision_name(sc.precision) +
+                         "\" is not compiled for 3D scenes of several materials; use \"fp64\"");
+      }
+    }
     GF_MPM_CASE_M(2, true, true)
   }
   if (!su.has_boundary) {

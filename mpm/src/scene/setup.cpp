@@ -498,11 +498,13 @@ SceneSetup make_setup(const Scene& sc) {
     }
   }
   for (const Stage& st : sc.stages) su.has_boundary = su.has_boundary || st.gate.has_value();
-  // Several materials run the ensembles' kernels (kernels.hpp, Members), compiled for 2D
-  // scenes with boundary code.
-  if (nmat > 1 && (D != 2 || !su.has_boundary))
-    fail("material", "several materials are compiled for 2D scenes with a wall, a base or a gate (this one is " +
-                         std::to_string(D) + "D" + (su.has_boundary ? "" : " without one") + ")");
+  // Several materials run the ensembles' kernels (kernels.hpp, Members), compiled only with
+  // boundary code: a scene of several materials without a wall, a base or a gate gets masks
+  // that hold no node (and no contact table), which its update reads as no boundary.
+  const bool masks = su.has_boundary || nmat > 1;
+  if (nmat > 1 && D == 3 && sc.precision != Precision::FP64)
+    fail("solver.precision", std::string("\"") + precision_name(sc.precision) +
+                                 "\" is not compiled for 3D scenes of several materials; use \"fp64\"");
   // Friction and lifting gates: their nodes are flagged (kContactNode) and a ContactTable
   // follows the stage's masks (boundary.hpp).
   const bool friction = std::any_of(sc.walls.begin(), sc.walls.end(), [](const Wall& w) { return w.mu.has_value(); }) ||
@@ -586,7 +588,7 @@ SceneSetup make_setup(const Scene& sc) {
              "a gate is lifted along y: its normal must have no y component (a vertical gate)");
     }
     std::vector<std::uint8_t> mask;
-    if (su.has_boundary) {
+    if (masks) {
       mask.assign(su.n_nodes, 0);
       const std::uint8_t all = static_cast<std::uint8_t>((1u << D) - 1);
       const std::uint8_t gate_bits =
