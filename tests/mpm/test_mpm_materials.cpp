@@ -12,11 +12,10 @@
 #include <granflow/mpm/runner.hpp>
 
 #include "one_thread.hpp"
+#include "test_constants.hpp"
 
 namespace granflow::mpm {
 namespace {
-
-constexpr double kDeg = M_PI / 180;
 
 Body box(double x0, double y0, double x1, double y1, int material) {
   Body b;
