@@ -337,6 +337,43 @@ Scene terrain_slide_scene(double duration) {
   return sc;
 }
 
+// Runs a set-up on the CPU twin and on `gpu`, prints one line (`head`: the case's name and
+// switches; `tail` before the verdict) and returns whether they agree: run-out and height within
+// tol, at most a tenth of the points more than h/4 from their twin.
+bool agrees_with_twin(const SceneSetup& su, Runner& gpu, const std::string& head, const std::string& tail,
+                      double tol) {
+  RunOptions opt;
+  opt.progress = false;
+  auto cpu = make_cpu_runner(su);
+  const RunSummary a = run(su, *cpu, opt);
+  const RunSummary b = run(su, gpu, opt);
+  HostParticles ha, hb;
+  cpu->download(ha);
+  gpu.download(hb);
+  long far = 0;
+  for (long i = 0; i < ha.n; ++i) {
+    double d2 = 0;
+    for (int d = 0; d < su.scene.dim; ++d) d2 += std::pow(ha.x[d * ha.n + i] - hb.x[d * ha.n + i], 2);
+    if (std::sqrt(d2) > 0.25 * su.scene.h) ++far;
+  }
+  const double rel = std::fabs(b.final.runout - a.final.runout) / a.final.runout;
+  const double relh = std::fabs(b.final.height - a.final.height) / a.final.height;
+  const bool ok = a.ok && b.ok && rel <= tol && relh <= tol && far <= ha.n / 10;
+  std::printf("%s cpu run-out %.5f m height %.5f m (%.2f s) | gpu run-out %.5f m height %.5f m (%.2f s, %s) | "
+              "rel. diff %.2e / %.2e | %ld of %ld points > h/4 apart%s %s\n",
+              head.c_str(), a.final.runout, a.final.height, a.wall_s, b.final.runout, b.final.height, b.wall_s,
+              b.device.c_str(), rel, relh, far, ha.n, tail.c_str(), ok ? "OK" : "FAIL");
+  if (!a.ok) std::printf("  cpu: %s\n", a.message.c_str());
+  if (!b.ok) std::printf("  gpu: %s\n", b.message.c_str());
+  return ok;
+}
+
+std::string padded(const char* fmt, const std::string& a, const char* b, const char* c = nullptr) {
+  char buf[256];
+  if (c) std::snprintf(buf, sizeof buf, fmt, a.c_str(), b, c); else std::snprintf(buf, sizeof buf, fmt, a.c_str(), b);
+  return buf;
+}
+
 // The terrain slide on both back ends: run-out, height and every particle's final position.
 // Skipped (true) where the 3D CUDA kernels are not compiled.
 bool terrain_case(const char* cuda, bool short_run, double tol) {
@@ -350,30 +387,8 @@ bool terrain_case(const char* cuda, bool short_run, double tol) {
     std::printf("%s: skipped (%s)\n", sc.name.c_str(), e.what());
     return true;
   }
-  RunOptions opt;
-  opt.progress = false;
-  auto cpu = make_cpu_runner(su);
-  const RunSummary a = run(su, *cpu, opt);
-  const RunSummary b = run(su, *gpu, opt);
-  HostParticles ha, hb;
-  cpu->download(ha);
-  gpu->download(hb);
-  long far = 0;
-  for (long i = 0; i < ha.n; ++i) {
-    double d2 = 0;
-    for (int d = 0; d < 3; ++d) d2 += std::pow(ha.x[d * ha.n + i] - hb.x[d * ha.n + i], 2);
-    if (std::sqrt(d2) > 0.25 * sc.h) ++far;
-  }
-  const double rel = std::fabs(b.final.runout - a.final.runout) / a.final.runout;
-  const double relh = std::fabs(b.final.height - a.final.height) / a.final.height;
-  const bool ok = a.ok && b.ok && rel <= tol && relh <= tol && far <= ha.n / 10;
-  std::printf("%-55s %s cpu run-out %.5f m height %.5f m (%.2f s) | gpu run-out %.5f m height %.5f m (%.2f s, %s) | "
-              "rel. diff %.2e / %.2e | %ld of %ld points > h/4 apart, %zu terrain nodes %s\n",
-              sc.name.c_str(), cuda, a.final.runout, a.final.height, a.wall_s, b.final.runout, b.final.height,
-              b.wall_s, b.device.c_str(), rel, relh, far, ha.n, su.terrain.size(), ok ? "OK" : "FAIL");
-  if (!a.ok) std::printf("  cpu: %s\n", a.message.c_str());
-  if (!b.ok) std::printf("  gpu: %s\n", b.message.c_str());
-  return ok;
+  return agrees_with_twin(su, *gpu, padded("%-55s %s", sc.name, cuda),
+                          ", " + std::to_string(su.terrain.size()) + " terrain nodes", tol);
 }
 
 // ---- several materials -------------------------------------------------------------------------
@@ -412,29 +427,9 @@ bool materials_case(ModelKind model, ShapeKind shape, const char* cuda, bool sho
   sc.bodies = {b0, b1};
   if (short_run && !no_walls) sc.stages.back().duration = 0.1;
   const SceneSetup su = make_setup(sc);
-  RunOptions opt;
-  opt.progress = false;
-  auto cpu = make_cpu_runner(su);
   auto gpu = make_cuda_runner(su, cuda_options(cuda));
-  const RunSummary a = run(su, *cpu, opt);
-  const RunSummary b = run(su, *gpu, opt);
-  HostParticles ha, hb;
-  cpu->download(ha);
-  gpu->download(hb);
-  long far = 0;
-  for (long i = 0; i < ha.n; ++i)
-    if (std::hypot(ha.x[i] - hb.x[i], ha.x[ha.n + i] - hb.x[ha.n + i]) > 0.25 * sc.h) ++far;
-  const double rel = std::fabs(b.final.runout - a.final.runout) / a.final.runout;
-  const double relh = std::fabs(b.final.height - a.final.height) / a.final.height;
-  const bool ok = a.ok && b.ok && rel <= tol && relh <= tol && far <= ha.n / 10;
-  std::printf("%-55s %-9s %s cpu run-out %.5f m height %.5f m (%.2f s) | gpu run-out %.5f m height %.5f m (%.2f s, "
-              "%s) | rel. diff %.2e / %.2e | %ld of %ld points > h/4 apart %s\n",
-              sc.name.c_str(), shape == ShapeKind::Linear ? "linear" : "quadratic", cuda, a.final.runout,
-              a.final.height, a.wall_s, b.final.runout, b.final.height, b.wall_s, b.device.c_str(), rel, relh, far,
-              ha.n, ok ? "OK" : "FAIL");
-  if (!a.ok) std::printf("  cpu: %s\n", a.message.c_str());
-  if (!b.ok) std::printf("  gpu: %s\n", b.message.c_str());
-  return ok;
+  const char* shape_name = shape == ShapeKind::Linear ? "linear" : "quadratic";
+  return agrees_with_twin(su, *gpu, padded("%-55s %-9s %s", sc.name, shape_name, cuda), "", tol);
 }
 
 // 3D (GRANFLOW_MPM_CUDA_3D; skipped, true, without it): the terrain slide of terrain_case as
@@ -468,31 +463,8 @@ bool materials_3d_case(ModelKind model, ShapeKind shape, const char* cuda, bool 
     std::printf("%s: skipped (%s)\n", sc.name.c_str(), e.what());
     return true;
   }
-  RunOptions opt;
-  opt.progress = false;
-  auto cpu = make_cpu_runner(su);
-  const RunSummary a = run(su, *cpu, opt);
-  const RunSummary b = run(su, *gpu, opt);
-  HostParticles ha, hb;
-  cpu->download(ha);
-  gpu->download(hb);
-  long far = 0;
-  for (long i = 0; i < ha.n; ++i) {
-    double d2 = 0;
-    for (int d = 0; d < 3; ++d) d2 += std::pow(ha.x[d * ha.n + i] - hb.x[d * ha.n + i], 2);
-    if (std::sqrt(d2) > 0.25 * sc.h) ++far;
-  }
-  const double rel = std::fabs(b.final.runout - a.final.runout) / a.final.runout;
-  const double relh = std::fabs(b.final.height - a.final.height) / a.final.height;
-  const bool ok = a.ok && b.ok && rel <= tol && relh <= tol && far <= ha.n / 10;
-  std::printf("%-55s %-9s %s cpu run-out %.5f m height %.5f m (%.2f s) | gpu run-out %.5f m height %.5f m (%.2f s, "
-              "%s) | rel. diff %.2e / %.2e | %ld of %ld points > h/4 apart %s\n",
-              sc.name.c_str(), shape == ShapeKind::Linear ? "linear" : "quadratic", cuda, a.final.runout,
-              a.final.height, a.wall_s, b.final.runout, b.final.height, b.wall_s, b.device.c_str(), rel, relh, far,
-              ha.n, ok ? "OK" : "FAIL");
-  if (!a.ok) std::printf("  cpu: %s\n", a.message.c_str());
-  if (!b.ok) std::printf("  gpu: %s\n", b.message.c_str());
-  return ok;
+  const char* shape_name = shape == ShapeKind::Linear ? "linear" : "quadratic";
+  return agrees_with_twin(su, *gpu, padded("%-55s %-9s %s", sc.name, shape_name, cuda), "", tol);
 }
 
 }  // namespace
