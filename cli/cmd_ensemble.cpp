@@ -141,6 +141,13 @@ std::string summary_csv(const mpm::EnsembleDesign& d, const mpm::Scene& sc, cons
   std::vector<double> times = sc.output.times;
   std::sort(times.begin(), times.end());
   for (double t : times) os << ",runout_t" << t;
+  // the obstacles' peak force and impulse (docs/mpm_obstacles.md), as the members report them
+  std::vector<std::string> obstacles;
+  for (const auto& o : sc.obstacles) obstacles.push_back(o.name);
+  const char* f_unit = sc.dim == 2 ? "N/m" : "N";
+  const char* i_unit = sc.dim == 2 ? "N s/m" : "N s";
+  for (const std::string& o : obstacles)
+    os << ',' << csv_quote(o + " peak [" + f_unit + "]") << ',' << csv_quote(o + " impulse [" + i_unit + "]");
   os << ",max_speed,steps,t_end,wall_s,message\n";
   for (size_t k = 0; k < s.members.size(); ++k) {
     const mpm::MemberSummary& m = s.members[k];
@@ -150,6 +157,15 @@ std::string summary_csv(const mpm::EnsembleDesign& d, const mpm::Scene& sc, cons
     for (double r : m.runout_at) {
       os << ',';
       if (std::isfinite(r)) os << r;
+    }
+    for (const std::string& o : obstacles) {
+      const mpm::ForcePeak* f = nullptr;
+      for (const auto& x : m.forces)
+        if (x.boundary == o) f = &x;
+      if (f)
+        os << ',' << f->peak << ',' << f->impulse;
+      else
+        os << ",,";
     }
     os << ',' << m.max_speed << ',' << m.steps << ',' << m.t_end << ',' << m.wall_s << ',' << csv_quote(m.message)
        << '\n';

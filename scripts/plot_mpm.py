@@ -4,7 +4,9 @@
     python3 scripts/plot_mpm.py DIR [--fields p,T,eps_pd] [--frames all|last] [--spacing S]
 
 Reads DIR/frames.pvd and the VTU frames it lists (base64 "binary" or ASCII, as granflow writes
-them), and writes DIR/png/<frame>_<field>.png plus DIR/png/runout.png from runout.csv.
+them), and writes DIR/png/<frame>_<field>.png plus DIR/png/runout.png from runout.csv and, where
+the run measured forces, DIR/png/forces.png from obstacle_forces.csv (each obstacle's mean and
+largest single-step force; every boundary's when the scene has no obstacle).
 Fields: any scalar point array of the frames (p, q, eps_pd, T, eta_c, K_col, e, sigma_xx,
 sigma_yy, sigma_xy) and speed (|velocity|). Every point is drawn as a square as wide as the
 particle spacing (the lattice spacing of the first frame, or --spacing S in metres), so the body
@@ -169,6 +171,31 @@ def main():
         ax.legend()
         fig.tight_layout()
         save_png(fig, os.path.join(outdir, "runout.png"), 130)
+        plt.close(fig)
+        written += 1
+    forces = os.path.join(a.dir, "obstacle_forces.csv")
+    if os.path.exists(forces):  # the force history of each obstacle (else of every boundary)
+        lines = [l.rstrip("\n").split(",") for l in open(forces)]
+        head, rows = lines[0], [r for r in lines[1:] if r[3] == "total"]
+        col = {name.split(" [")[0]: k for k, name in enumerate(head)}
+        unit = head[col["Fx"]].split("[")[1].rstrip("]")
+        names = list(dict.fromkeys(r[2] for r in rows))
+        shown = [n for n in names if not (n.startswith("wall[") or n in ("base", "terrain"))] or names
+        fig, ax = plt.subplots(figsize=(6.5, 3.8))
+        for n in shown:
+            mine = [r for r in rows if r[2] == n]
+            t = [float(r[col["t_flow"]]) for r in mine]
+            comps = [c for c in ("Fx", "Fy", "Fz") if c in col]
+            mean = [sum(float(r[col[c]]) ** 2 for c in comps) ** 0.5 for r in mine]
+            line, = ax.plot(t, mean, label="%s: |mean force|" % n)
+            ax.plot(t, [float(r[col["F_max"]]) for r in mine], ls="--", lw=0.8, color=line.get_color(),
+                    label="%s: largest step force" % n)
+        ax.set_xlabel("t_flow: time since the last stage began [s]")
+        ax.set_ylabel("force [%s]" % unit)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        save_png(fig, os.path.join(outdir, "forces.png"), 130)
         plt.close(fig)
         written += 1
     print("plot_mpm.py: %d PNG files in %s" % (written, outdir))

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include <memory>
+#include <optional>
 #include <stdexcept>
 
 #include <granflow/io/raster.hpp>
@@ -358,11 +359,29 @@ bool agrees_with_twin(const SceneSetup& su, Runner& gpu, const std::string& head
   }
   const double rel = std::fabs(b.final.runout - a.final.runout) / a.final.runout;
   const double relh = std::fabs(b.final.height - a.final.height) / a.final.height;
-  const bool ok = a.ok && b.ok && rel <= tol && relh <= tol && far <= ha.n / 10;
+  bool ok = a.ok && b.ok && rel <= tol && relh <= tol && far <= ha.n / 10;
+  // boundary forces (output.forces): each boundary's impulse within 1e-3 of the twin's
+  std::string forces;
+  if (!a.forces.empty() && a.forces.size() == b.forces.size()) {
+    double worst = 0;
+    for (size_t k = 0; k < a.forces.size(); ++k) {
+      const double d = std::fabs(b.forces[k].impulse - a.forces[k].impulse) / std::max(a.forces[k].impulse, 1e-12);
+      worst = std::max(worst, d);
+      char buf[160];
+      std::snprintf(buf, sizeof buf, " | %s impulse %.5g / %.5g N s/m", a.forces[k].boundary.c_str(),
+                    a.forces[k].impulse, b.forces[k].impulse);
+      forces += buf;
+    }
+    ok = ok && worst <= 1e-3;
+    forces += " (rel. diff " + std::to_string(worst) + ")";
+  } else if (a.forces.size() != b.forces.size()) {
+    ok = false;
+    forces = " | the back ends report different boundaries";
+  }
   std::printf("%s cpu run-out %.5f m height %.5f m (%.2f s) | gpu run-out %.5f m height %.5f m (%.2f s, %s) | "
-              "rel. diff %.2e / %.2e | %ld of %ld points > h/4 apart%s %s\n",
+              "rel. diff %.2e / %.2e | %ld of %ld points > h/4 apart%s%s %s\n",
               head.c_str(), a.final.runout, a.final.height, a.wall_s, b.final.runout, b.final.height, b.wall_s,
-              b.device.c_str(), rel, relh, far, ha.n, tail.c_str(), ok ? "OK" : "FAIL");
+              b.device.c_str(), rel, relh, far, ha.n, forces.c_str(), tail.c_str(), ok ? "OK" : "FAIL");
   if (!a.ok) std::printf("  cpu: %s\n", a.message.c_str());
   if (!b.ok) std::printf("  gpu: %s\n", b.message.c_str());
   return ok;
@@ -389,6 +408,29 @@ bool terrain_case(const char* cuda, bool short_run, double tol) {
   }
   return agrees_with_twin(su, *gpu, padded("%-55s %s", sc.name, cuda),
                           ", " + std::to_string(su.terrain.size()) + " terrain nodes", tol);
+}
+
+// ---- obstacles ----------------------------------------------------------------------------------
+// The CI column runs into a low wall (an obstacle 3 cm thick and 4 cm high, 2 cm beyond the
+// column, no-slip or frictional): run-out, height and every boundary's impulse (the obstacle,
+// the walls; output.forces) on both back ends.
+bool obstacle_case(ModelKind model, ShapeKind shape, std::optional<double> mu, const char* cuda, bool short_run,
+                   double tol) {
+  Scene sc = small_column_scene(model, shape);
+  Obstacle o;
+  o.name = "low wall";
+  o.key = "obstacle[0]";
+  o.kind = "box";
+  o.poly_x = {0.22, 0.25, 0.25, 0.22};
+  o.poly_y = {0.0, 0.0, 0.04, 0.04};
+  o.mu = mu;
+  sc.obstacles = {o};
+  sc.name += mu ? ", low wall mu " + std::to_string(*mu).substr(0, 4) : ", low wall";
+  if (short_run) sc.stages.back().duration = 0.1;
+  const SceneSetup su = make_setup(sc);
+  auto gpu = make_cuda_runner(su, cuda_options(cuda));
+  const char* shape_name = shape == ShapeKind::Linear ? "linear" : "quadratic";
+  return agrees_with_twin(su, *gpu, padded("%-55s %-9s %s", sc.name, shape_name, cuda), "", tol);
 }
 
 // ---- several materials -------------------------------------------------------------------------
@@ -513,6 +555,10 @@ int main(int argc, char** argv) {
     fails += materials_3d_case(ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, "sort 1, graphs off", short_run, tol) ? 0 : 1;
   }
   if (materials_only) return fails == 0 ? 0 : 1;
+  if (!ensembles_only) {
+    fails += obstacle_case(ModelKind::PhaseTransition, ShapeKind::Linear, std::nullopt, "", short_run, tol) ? 0 : 1;
+    fails += obstacle_case(ModelKind::Frictional, ShapeKind::QuadraticBSpline, 0.3, "sort 1, graphs off", short_run, tol) ? 0 : 1;
+  }
   for (const Case& c : cases) {
     if (ensembles_only) break;
     const CudaOptions co = cuda_options(c.cuda);

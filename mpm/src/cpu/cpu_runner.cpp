@@ -57,6 +57,16 @@ class CpuRunner final : public Runner {
       terrain_ = su.terrain;
       terrain_mu_ = su.terrain_mu;
     }
+    // obstacles and boundary forces: ensembles list each member's nodes (global indices)
+    if constexpr (kBoundary) {
+      obstacles_ = su.obstacle_nodes;
+      probes_ = su.probes;
+      parts_ = su.force_parts;
+      n_boundaries_ = static_cast<int>(su.force_boundaries.size());
+      forces_.parts.assign(parts_.size(), ForceSums{});
+      forces_.boundaries.assign(n_boundaries_, ForceSums{});
+      forces_.node_impulse.assign(static_cast<size_t>(D) * probes_.size(), 0.0);
+    }
     set_stage(0, 0.0, su.scene.flip);
   }
 
@@ -95,6 +105,8 @@ class CpuRunner final : public Runner {
     else
       grid_update<false>(gv);
     if (!terrain_.empty()) terrain_pass(gv);
+    if (!obstacles_.empty()) obstacle_pass(gv);
+    if (!probes_.empty()) force_pass(gv, dt);
     times_.grid += seconds_since(t0);
     t0 = Clock::now();
     std::uint32_t any = 0;
@@ -208,6 +220,18 @@ class CpuRunner final : public Runner {
   PhaseTimes times() const override { return times_; }
   UpdateStats update_stats() const override { return stats_; }
   void reset_times() override { times_ = PhaseTimes{}; }
+  void take_forces(BoundaryForces& out, bool keep) override {
+    out = forces_;
+    if (keep) return;
+    std::fill(forces_.parts.begin(), forces_.parts.end(), ForceSums{});
+    std::fill(forces_.boundaries.begin(), forces_.boundaries.end(), ForceSums{});
+    std::fill(forces_.node_impulse.begin(), forces_.node_impulse.end(), 0.0);
+  }
+  void restore_forces(const BoundaryForces& in) override {
+    if (in.parts.size() == forces_.parts.size() && in.boundaries.size() == forces_.boundaries.size() &&
+        in.node_impulse.size() == forces_.node_impulse.size())
+      forces_ = in;
+  }
   std::string device() const override {
     int threads = 1;
 #ifdef _OPENMP
@@ -266,6 +290,40 @@ class CpuRunner final : public Runner {
     const TerrainNode* t = terrain_.data();
 #pragma omp parallel for schedule(static)
     for (long i = 0; i < nt; ++i) terrain_contact<D, S>(gv, t[i], terrain_mu_);
+  }
+
+  // Obstacles' hold on their listed nodes (boundary.hpp obstacle_contact).
+  void obstacle_pass(const GridView<S>& gv) {
+    const long no = static_cast<long>(obstacles_.size());
+    const ObstacleNode* o = obstacles_.data();
+#pragma omp parallel for schedule(static)
+    for (long i = 0; i < no; ++i) obstacle_contact<D, S>(gv, o[i]);
+  }
+
+  // The forces on the boundaries: the momentum each probe's node lost to the holds of this step,
+  // summed part by part in probe order, then boundary by boundary in part order.
+  void force_pass(const GridView<S>& gv, double dt) {
+    const long nm = sp_.grid.n_nodes, np = static_cast<long>(probes_.size());
+    std::vector<ForceSums>& step = step_sums_;
+    step.assign(parts_.size(), ForceSums{});
+    for (size_t q = 0; q < parts_.size(); ++q) {
+      const ForcePart& part = parts_[q];
+      for (long i = part.first; i < part.first + part.count; ++i) {
+        const ForceProbe& pr = probes_[i];
+        double v[3] = {0, 0, 0}, vd[3] = {0, 0, 0}, dp[3] = {0, 0, 0};
+        const double m = trial_velocity<D, S, Model>(gv, pr.node, node_params(static_cast<int>(pr.node / nm)), v, vd);
+        removed_momentum<D, S>(gv, pr.node, m, v, vd, dp);
+        add_probe_momentum<D>(step[q], pr, dp, part.moment_point);
+        for (int d = 0; d < D; ++d) forces_.node_impulse[d * np + i] += dp[d];
+      }
+      add_force_step(forces_.parts[q], step[q], dt);
+    }
+    for (int b = 0; b < n_boundaries_; ++b) {
+      ForceSums sb;
+      for (size_t q = 0; q < parts_.size(); ++q)
+        if (parts_[q].boundary == b) add_step_sums(sb, step[q]);
+      add_force_step(forces_.boundaries[b], sb, dt);
+    }
   }
 
   void p2g(const ParticleView<S>& pv, const GridView<S>& gv) {
@@ -332,6 +390,12 @@ class CpuRunner final : public Runner {
   std::vector<bool> contacts_;  // per stage: friction or a lifting gate (stage_has_contacts)
   std::vector<TerrainNode> terrain_;  // frictional terrain (empty: no terrain pass)
   double terrain_mu_ = 0;
+  std::vector<ObstacleNode> obstacles_;  // obstacles' nodes (empty: no obstacle pass)
+  std::vector<ForceProbe> probes_;       // boundary forces (empty: no force pass)
+  std::vector<ForcePart> parts_;
+  int n_boundaries_ = 0;
+  BoundaryForces forces_;
+  std::vector<ForceSums> step_sums_;
   SP sp_;
   long n_;
   long nn_;  // grid nodes of all members

@@ -24,6 +24,18 @@ struct FieldList;    // cuda_sampling.cuh
 // kMembers: an ensemble (kernels.hpp, Members). Particles stay member-major in every order
 // (sort keys put member k before k + 1), so the member of slot p is p / P; the grid holds the
 // members' nodes one block after another (nn_ nodes in all, sp_.grid.n_nodes per member).
+// Boundary forces on the device: a probe's node mass and velocity before the holds, and a
+// ForcePart's range and moment point.
+struct ProbeTrial {
+  double m;
+  double v[3], vd[3];  // undamped, damped
+};
+struct PartRange {
+  long first, count;
+  int boundary;
+  double about[3];
+};
+
 template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
 class CudaRunner final : public Runner {
   using G = GridLayout<D>;
@@ -57,6 +69,8 @@ class CudaRunner final : public Runner {
   void frame(Frame& out, bool diagnostics, const std::vector<long>& subset) override;
   void snapshot(const std::vector<long>& subset) override;
   void collect(Frame& out) override;
+  void take_forces(BoundaryForces& out, bool keep) override;
+  void restore_forces(const BoundaryForces& in) override;
 
   void download(HostParticles& out) override { detail::unpack<D, S, kColl>(fetch_all(), n_, out); }
   void upload(const HostParticles& in) override {
@@ -173,6 +187,17 @@ class CudaRunner final : public Runner {
   TerrainNode* terrain_ = nullptr;  // frictional terrain's nodes (terrain_kernel; none: no launch)
   long n_terrain_ = 0;
   double terrain_mu_ = 0;
+  ObstacleNode* obstacle_ = nullptr;  // obstacles' nodes (obstacle_kernel; none: no launch)
+  long n_obstacle_ = 0;
+  // boundary forces (probe_trial_kernel, force_parts_kernel, force_boundaries_kernel; none: no launch)
+  ForceProbe* probes_ = nullptr;
+  ProbeTrial* trial_ = nullptr;
+  PartRange* parts_ = nullptr;
+  ForceSums* part_step_ = nullptr;
+  ForceSums* force_acc_ = nullptr;  // the parts', then the boundaries' sums since the last take
+  double* node_impulse_ = nullptr;
+  long n_probes_ = 0;
+  int n_parts_ = 0, n_boundaries_ = 0;
   std::vector<MV> values_;                 // ensembles: per member and material (host copy)
   // Several materials: per slot, the point's material index (sp_.members.material), sorted
   // with the points; the host copy in the original order.

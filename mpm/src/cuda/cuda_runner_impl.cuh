@@ -115,6 +115,36 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const Sce
             "upload terrain nodes");
     }
   }
+  if constexpr (kBoundary) {
+    if (!su.obstacle_nodes.empty()) {
+      n_obstacle_ = static_cast<long>(su.obstacle_nodes.size());
+      obstacle_ = device_alloc<ObstacleNode>(n_obstacle_);
+      check(cudaMemcpy(obstacle_, su.obstacle_nodes.data(), sizeof(ObstacleNode) * n_obstacle_, cudaMemcpyHostToDevice),
+            "upload obstacle nodes");
+    }
+    if (!su.probes.empty()) {
+      n_probes_ = static_cast<long>(su.probes.size());
+      n_parts_ = static_cast<int>(su.force_parts.size());
+      n_boundaries_ = static_cast<int>(su.force_boundaries.size());
+      probes_ = device_alloc<ForceProbe>(n_probes_);
+      check(cudaMemcpy(probes_, su.probes.data(), sizeof(ForceProbe) * n_probes_, cudaMemcpyHostToDevice),
+            "upload force probes");
+      trial_ = device_alloc<ProbeTrial>(n_probes_);
+      std::vector<PartRange> ranges;
+      for (const ForcePart& p : su.force_parts)
+        ranges.push_back({p.first, p.count, p.boundary, {p.moment_point[0], p.moment_point[1], p.moment_point[2]}});
+      parts_ = device_alloc<PartRange>(n_parts_);
+      check(cudaMemcpy(parts_, ranges.data(), sizeof(PartRange) * n_parts_, cudaMemcpyHostToDevice), "upload force parts");
+      part_step_ = device_alloc<ForceSums>(n_parts_);
+      force_acc_ = device_alloc<ForceSums>(n_parts_ + n_boundaries_);
+      node_impulse_ = device_alloc<double>(D * n_probes_);
+      BoundaryForces zero;
+      zero.parts.assign(n_parts_, ForceSums{});
+      zero.boundaries.assign(n_boundaries_, ForceSums{});
+      zero.node_impulse.assign(static_cast<size_t>(D) * n_probes_, 0.0);
+      restore_forces(zero);
+    }
+  }
   if constexpr (kMembers) {
     // per-member values, retired flags and first bad particles (sp_.members, SpanControl)
     const int nm = su.members;
@@ -155,7 +185,9 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::~CudaRunner() {
                   static_cast<void*>(n_deferred_), static_cast<void*>(values_dev_), static_cast<void*>(dead_),
                   static_cast<void*>(member_bad_), static_cast<void*>(snap_dev_), static_cast<void*>(snap_sub_ids_),
                   static_cast<void*>(snap_sub_dev_), static_cast<void*>(terrain_), static_cast<void*>(material_),
-                  static_cast<void*>(material_alt_)})
+                  static_cast<void*>(material_alt_), static_cast<void*>(obstacle_), static_cast<void*>(probes_),
+                  static_cast<void*>(trial_), static_cast<void*>(parts_), static_cast<void*>(part_step_),
+                  static_cast<void*>(force_acc_), static_cast<void*>(node_impulse_)})
     cudaFree(p);
   if (copy_stream_) {
     cudaStreamDestroy(copy_stream_);
@@ -172,6 +204,46 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::~CudaRunner() {
   if (host_) cudaFreeHost(host_);
   for (auto& e : ev_) cudaEventDestroy(e);
   cudaStreamDestroy(stream_);
+}
+
+// The forces since the last take (queued behind the steps; a synchronisation).
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::take_forces(BoundaryForces& out, bool keep) {
+  out = {};
+  if (n_probes_ == 0) return;
+  out.parts.resize(n_parts_);
+  out.boundaries.resize(n_boundaries_);
+  out.node_impulse.resize(static_cast<size_t>(D) * n_probes_);
+  check(cudaMemcpyAsync(out.parts.data(), force_acc_, sizeof(ForceSums) * n_parts_, cudaMemcpyDeviceToHost, stream_),
+        "download forces");
+  check(cudaMemcpyAsync(out.boundaries.data(), force_acc_ + n_parts_, sizeof(ForceSums) * n_boundaries_,
+                        cudaMemcpyDeviceToHost, stream_),
+        "download forces");
+  check(cudaMemcpyAsync(out.node_impulse.data(), node_impulse_, sizeof(double) * out.node_impulse.size(),
+                        cudaMemcpyDeviceToHost, stream_),
+        "download forces");
+  check(cudaStreamSynchronize(stream_), "download forces");
+  if (keep) return;
+  BoundaryForces zero;
+  zero.parts.assign(n_parts_, ForceSums{});
+  zero.boundaries.assign(n_boundaries_, ForceSums{});
+  zero.node_impulse.assign(out.node_impulse.size(), 0.0);
+  restore_forces(zero);
+}
+
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::restore_forces(const BoundaryForces& in) {
+  if (n_probes_ == 0 || in.parts.size() != static_cast<size_t>(n_parts_) ||
+      in.boundaries.size() != static_cast<size_t>(n_boundaries_) ||
+      in.node_impulse.size() != static_cast<size_t>(D) * n_probes_)
+    return;
+  check(cudaMemcpy(force_acc_, in.parts.data(), sizeof(ForceSums) * n_parts_, cudaMemcpyHostToDevice), "upload forces");
+  check(cudaMemcpy(force_acc_ + n_parts_, in.boundaries.data(), sizeof(ForceSums) * n_boundaries_,
+                   cudaMemcpyHostToDevice),
+        "upload forces");
+  check(cudaMemcpy(node_impulse_, in.node_impulse.data(), sizeof(double) * in.node_impulse.size(),
+                   cudaMemcpyHostToDevice),
+        "upload forces");
 }
 
 // Particle state from the host (the set-up, or a checkpoint through upload()). The buffer keeps

@@ -203,6 +203,81 @@ __global__ void terrain_kernel(GridView<S> gv, const TerrainNode* nodes, long n,
   if (i < n) terrain_contact<D, S>(gv, nodes[i], mu);
 }
 
+// ---- obstacles and the forces on the boundaries (launched only for scenes with them) ------
+
+template <int D, class S>
+__global__ void obstacle_kernel(GridView<S> gv, const ObstacleNode* nodes, long n, const SpanControl* ctl) {
+  if (!ctl->active) return;
+  const long i = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  if (i < n) obstacle_contact<D, S>(gv, nodes[i]);
+}
+
+// A probe's node mass and velocity before the holds (ProbeTrial), taken before the grid kernel
+// clears mass, momentum and force (the CPU twin takes them after the holds: the same arithmetic).
+template <int D, class S, class Model, bool kMembers>
+__global__ void probe_trial_kernel(GridView<S> gv, StepParams<D, S, Model> sp0, const SpanControl* ctl,
+                                   const ForceProbe* probes, long n, ProbeTrial* out) {
+  if (!ctl->active) return;
+  const long i = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  if (i >= n) return;
+  StepParams<D, S, Model> sp = with_span(sp0, ctl);
+  const long I = probes[i].node;
+  if constexpr (kMembers) apply_member(sp, sp.members.node_values(sp.members.of_node(I)));
+  out[i].m = trial_velocity<D, S, Model>(gv, I, sp, out[i].v, out[i].vd);
+}
+
+constexpr int kForceBlock = 128;
+
+// One block per part: the step's sums of its probes (a fixed-order tree over the block), added
+// to the part's sums since the last take; each probe's dp to its own sum.
+template <int D, class S>
+__global__ void force_parts_kernel(GridView<S> gv, const SpanControl* ctl, const ForceProbe* probes,
+                                   const ProbeTrial* trial, const PartRange* parts, long np, ForceSums* step,
+                                   ForceSums* acc, double* node_impulse) {
+  if (!ctl->active) return;
+  const PartRange pr = parts[blockIdx.x];
+  ForceSums s;
+  for (long i = pr.first + threadIdx.x; i < pr.first + pr.count; i += blockDim.x) {
+    double dp[3] = {0, 0, 0};
+    removed_momentum<D, S>(gv, probes[i].node, trial[i].m, trial[i].v, trial[i].vd, dp);
+    add_probe_momentum<D>(s, probes[i], dp, pr.about);
+    for (int d = 0; d < D; ++d) node_impulse[d * np + i] += dp[d];
+  }
+  __shared__ double red[8][kForceBlock];
+  const double mine[8] = {s.impulse[0], s.impulse[1], s.impulse[2], s.normal,
+                          s.tangential, s.moment[0], s.moment[1], s.moment[2]};
+  for (int k = 0; k < 8; ++k) red[k][threadIdx.x] = mine[k];
+  __syncthreads();
+  for (int w = kForceBlock / 2; w > 0; w /= 2) {
+    if (threadIdx.x < w)
+      for (int k = 0; k < 8; ++k) red[k][threadIdx.x] += red[k][threadIdx.x + w];
+    __syncthreads();
+  }
+  if (threadIdx.x != 0) return;
+  ForceSums t;
+  for (int d = 0; d < 3; ++d) {
+    t.impulse[d] = red[d][0];
+    t.moment[d] = red[5 + d][0];
+  }
+  t.normal = red[3][0];
+  t.tangential = red[4][0];
+  step[blockIdx.x] = t;
+  add_force_step(acc[blockIdx.x], t, ctl->h);
+}
+
+// Each boundary's step: its parts' step sums in part order (a template: defined in every kernel file).
+template <int D>
+__global__ void force_boundaries_kernel(const SpanControl* ctl, const PartRange* parts, int n_parts,
+                                        const ForceSums* step, ForceSums* acc, int nb) {
+  if (!ctl->active) return;
+  const int b = blockIdx.x * blockDim.x + threadIdx.x;
+  if (b >= nb) return;
+  ForceSums sb;
+  for (int q = 0; q < n_parts; ++q)
+    if (parts[q].boundary == b) add_step_sums(sb, step[q]);
+  add_force_step(acc[b], sb, ctl->h);
+}
+
 // ---- G2P ---------------------------------------------------------------------------------
 // kMembers: each particle with its member's values and view of the grid; a retired member's
 // points are skipped (no update, no stable-step limit); a failure is recorded for the span and
@@ -422,6 +497,15 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::preload() const
   for (const void* f : k) check(cudaFuncGetAttributes(&a, f), "load kernels");
   if constexpr (kTerrain)
     if (n_terrain_ > 0) check(cudaFuncGetAttributes(&a, reinterpret_cast<const void*>(terrain_kernel<D, S>)), "load kernels");
+  if constexpr (kBoundary) {
+    if (n_obstacle_ > 0) check(cudaFuncGetAttributes(&a, reinterpret_cast<const void*>(obstacle_kernel<D, S>)), "load kernels");
+    if (n_probes_ > 0) {
+      const void* f[] = {reinterpret_cast<const void*>(probe_trial_kernel<D, S, Model, kMembers>),
+                         reinterpret_cast<const void*>(force_parts_kernel<D, S>),
+                         reinterpret_cast<const void*>(force_boundaries_kernel<D>)};
+      for (const void* x : f) check(cudaFuncGetAttributes(&a, x), "load kernels");
+    }
+  }
 }
 
 // Queues one step (kernels only: capturable).
@@ -448,6 +532,10 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_step(bo
       break;
   }
   if (timed) cudaEventRecord(ev_[kGrid0], stream_);
+  if constexpr (kBoundary)
+    if (n_probes_ > 0)
+      probe_trial_kernel<D, S, Model, kMembers><<<blocks_for(n_probes_, kGridBlock), kGridBlock, 0, stream_>>>(
+          gv, sp_, ctl_, probes_, n_probes_, trial_);
   if (kBoundary && contacts_[stage_])  // friction or a lifting gate (boundary.hpp)
     grid_kernel<D, S, Model, kBoundary, kBoundary, kMembers><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
   else
@@ -456,6 +544,17 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_step(bo
     if (n_terrain_ > 0)
       terrain_kernel<D, S><<<blocks_for(n_terrain_, kGridBlock), kGridBlock, 0, stream_>>>(gv, terrain_, n_terrain_,
                                                                                          terrain_mu_, ctl_);
+  if constexpr (kBoundary) {
+    if (n_obstacle_ > 0)
+      obstacle_kernel<D, S><<<blocks_for(n_obstacle_, kGridBlock), kGridBlock, 0, stream_>>>(gv, obstacle_,
+                                                                                            n_obstacle_, ctl_);
+    if (n_probes_ > 0) {
+      force_parts_kernel<D, S><<<n_parts_, kForceBlock, 0, stream_>>>(gv, ctl_, probes_, trial_, parts_, n_probes_,
+                                                                      part_step_, force_acc_, node_impulse_);
+      force_boundaries_kernel<D><<<blocks_for(n_boundaries_, 64), 64, 0, stream_>>>(ctl_, parts_, n_parts_, part_step_, force_acc_ + n_parts_,
+                                                     n_boundaries_);
+    }
+  }
   if (timed) cudaEventRecord(ev_[kG2P0], stream_);
   if (split()) {
     const unsigned eb = blocks_for(n_, kSplitBlock);

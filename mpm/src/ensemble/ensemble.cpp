@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <future>
 #include <limits>
+#include <memory>
 #include <sstream>
 #include <thread>
 
@@ -69,6 +70,30 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
   const auto wall0 = Clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - wall0).count(); };
 
+  // Boundary forces (output.forces): each member's share of the runner's sums, in a recorder of
+  // its own set-up (make_ensemble_setup lists the members' parts and probes one after another).
+  std::vector<std::unique_ptr<ForceRecorder>> forces;
+  for (int k = 0; k < nm && !su.probes.empty(); ++k) forces.push_back(std::make_unique<ForceRecorder>(ms[k]));
+  auto sample_forces = [&](double t) {
+    if (forces.empty()) return;
+    BoundaryForces all;
+    runner.take_forces(all);
+    const size_t nq = ms[0].force_parts.size(), nb = ms[0].force_boundaries.size(), npr = ms[0].probes.size();
+    const int D = sc.dim;
+    for (int k = 0; k < nm; ++k) {
+      if (!alive[k]) continue;
+      BoundaryForces f;
+      f.parts.assign(all.parts.begin() + k * nq, all.parts.begin() + (k + 1) * nq);
+      f.boundaries.assign(all.boundaries.begin() + k * nb, all.boundaries.begin() + (k + 1) * nb);
+      f.node_impulse.resize(D * npr);
+      for (int d = 0; d < D; ++d)
+        std::copy(all.node_impulse.begin() + d * nm * npr + k * npr,
+                  all.node_impulse.begin() + d * nm * npr + (k + 1) * npr, f.node_impulse.begin() + d * npr);
+      forces[k]->sample(t, t - t_release, f);
+    }
+  };
+
+
   // Samples: a snapshot of all members (queued behind the steps; Runner::snapshot), collected
   // and measured on a worker thread while the next span runs, the members split over a few
   // threads; settle() before anything reads the rows or takes the next snapshot.
@@ -82,6 +107,7 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
   auto sample = [&](double t, int stage, long out_index) {
     settle();
     last_sample_t = t;
+    sample_forces(t);
     std::vector<int> todo;
     for (int k = 0; k < nm; ++k) {
       if (!alive[k]) continue;
@@ -273,6 +299,10 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
     const std::string dir = member_dir(opt.out_dir, opt.first_member + k);
     write_series_csv(dir, ms[k].scene, m.series, m.tracks);
     write_profile_csv(dir + "/profile_final.csv", m.profile);
+  }
+  for (size_t k = 0; k < forces.size(); ++k) {
+    sum.members[k].forces = forces[k]->peaks();
+    if (files) forces[k]->write_csv(member_dir(opt.out_dir, opt.first_member + static_cast<int>(k)));
   }
   return sum;
 }

@@ -114,6 +114,30 @@ SceneSetup make_ensemble_setup(const std::vector<SceneSetup>& members) {
     su.stage_masks.push_back(std::move(block));
     su.stage_contacts.push_back(contacts ? 1 : 0);
   }
+  // Obstacles and force probes: each member's, its nodes offset by its grid block; parts and
+  // boundaries member after member (member k's boundary b is k * boundaries + b).
+  for (int k = 0; k < nm; ++k) {
+    const SceneSetup& m = members[k];
+    require(m.force_parts.size() == m0.force_parts.size() && m.force_boundaries == m0.force_boundaries, k,
+            "obstacle", "the obstacles and the boundaries whose forces are measured");
+    const long off = static_cast<long>(k) * m0.n_nodes, p0 = static_cast<long>(su.probes.size());
+    const int q0 = static_cast<int>(su.force_parts.size()), b0 = static_cast<int>(su.force_boundaries.size());
+    for (ObstacleNode o : m.obstacle_nodes) {
+      o.node += off;
+      su.obstacle_nodes.push_back(o);
+    }
+    for (ForceProbe p : m.probes) {
+      p.node += off;
+      p.part += q0;
+      su.probes.push_back(p);
+    }
+    for (ForcePart q : m.force_parts) {
+      q.boundary += b0;
+      q.first += p0;
+      su.force_parts.push_back(q);
+    }
+    su.force_boundaries.insert(su.force_boundaries.end(), m.force_boundaries.begin(), m.force_boundaries.end());
+  }
   return su;
 }
 

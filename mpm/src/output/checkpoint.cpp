@@ -15,7 +15,7 @@ namespace granflow::mpm {
 namespace {
 
 constexpr char kMagic[8] = {'G', 'F', 'M', 'P', 'M', 'C', 'K', 'P'};
-constexpr std::uint32_t kVersion = 2;  // 2: the maps of terrain runs
+constexpr std::uint32_t kVersion = 3;  // 2: the maps of terrain runs; 3: boundary forces
 constexpr std::uint32_t kByteOrder = 0x01020304;
 constexpr size_t kHeader = 8 + 4 + 4 + 8 + 8;
 
@@ -126,6 +126,22 @@ std::uint64_t fnv1a(std::string_view bytes, std::uint64_t h) {
   return h;
 }
 
+void write_sums(Writer& w, const ForceSums& f) {
+  for (double v : {f.impulse[0], f.impulse[1], f.impulse[2], f.normal, f.tangential, f.moment[0], f.moment[1],
+                   f.moment[2], f.max_force, f.time})
+    w.pod(v);
+  w.pod(static_cast<std::int64_t>(f.steps));
+}
+ForceSums read_sums(Reader& r) {
+  ForceSums f;
+  for (double* v : {&f.impulse[0], &f.impulse[1], &f.impulse[2], &f.normal, &f.tangential, &f.moment[0], &f.moment[1],
+                    &f.moment[2], &f.max_force, &f.time})
+    *v = r.pod<double>();
+  f.steps = r.pod<std::int64_t>();
+  return f;
+}
+constexpr std::uint64_t kSumsBytes = 11 * 8;
+
 std::string encode_checkpoint(const Checkpoint& c) {
   Writer w;
   w.bytes().append(kMagic, sizeof kMagic);
@@ -182,6 +198,19 @@ std::string encode_checkpoint(const Checkpoint& c) {
   w.pod(static_cast<std::uint64_t>(s.maps.deposit.size()));
   for (const DepositRow& r : s.maps.deposit)
     for (double v : {r.t, r.t_flow, r.area, r.volume, r.extent}) w.pod(v);
+  w.pod(static_cast<std::uint64_t>(s.forces.rows.size()));
+  for (const ForceRow& r : s.forces.rows) {
+    w.pod(r.t);
+    w.pod(r.t_flow);
+    w.pod(static_cast<std::int32_t>(r.boundary));
+    w.pod(static_cast<std::int32_t>(r.part));
+    write_sums(w, r.sums);
+  }
+  for (const auto* v : {&s.forces.pending.parts, &s.forces.pending.boundaries}) {
+    w.pod(static_cast<std::uint64_t>(v->size()));
+    for (const ForceSums& f : *v) write_sums(w, f);
+  }
+  w.doubles(s.forces.pending.node_impulse);
 
   std::string& b = w.bytes();
   const std::uint64_t payload = b.size() - kHeader;
@@ -279,6 +308,18 @@ Checkpoint decode_checkpoint(std::string_view b) {
     for (double* v : {&row.t, &row.t_flow, &row.area, &row.volume, &row.extent}) *v = r.pod<double>();
     s.maps.deposit.push_back(row);
   }
+  for (std::uint64_t k = 0, n = r.count(24 + kSumsBytes, "force rows"); k < n; ++k) {
+    ForceRow row;
+    row.t = r.pod<double>();
+    row.t_flow = r.pod<double>();
+    row.boundary = r.pod<std::int32_t>();
+    row.part = r.pod<std::int32_t>();
+    row.sums = read_sums(r);
+    s.forces.rows.push_back(row);
+  }
+  for (auto* v : {&s.forces.pending.parts, &s.forces.pending.boundaries})
+    for (std::uint64_t k = 0, n = r.count(kSumsBytes, "force sums"); k < n; ++k) v->push_back(read_sums(r));
+  s.forces.pending.node_impulse = r.doubles("forces.node_impulse");
   if (r.at() != b.size() - 8) Reader::fail(std::to_string(b.size() - 8 - r.at()) + " unread bytes after the state");
   if (s.series.empty()) Reader::fail("no run-out sample (a run samples t = 0 first)");
   return c;
@@ -291,8 +332,13 @@ void write_checkpoint(const std::string& path, const Checkpoint& c) {
 }
 
 std::vector<std::string> checkpoint_outputs(const Checkpoint& c) {
-  std::vector<std::string> names = {kCheckpointFile, "frames.pvd", "runout.csv", "tracked.csv", "deposit.csv"};
-  for (const auto& [t, file] : c.loop.pvd) names.push_back(file);
+  std::vector<std::string> names = {kCheckpointFile, "frames.pvd", "runout.csv", "tracked.csv", "deposit.csv",
+                                    "obstacle_forces.csv", "obstacles.vtu"};
+  for (const auto& [t, file] : c.loop.pvd) {
+    names.push_back(file);
+    if (file.rfind("frame_", 0) == 0 && file.size() >= 10)  // its pressure profile (2D obstacles)
+      names.push_back("obstacle_pressure_" + file.substr(6, 4) + ".csv");
+  }
   return names;
 }
 

@@ -62,6 +62,11 @@ std::string pack_members(const std::vector<MemberSummary>& ms) {
     std::vector<double> xy;
     for (const auto& [x, y] : m.profile) xy.insert(xy.end(), {x, y});
     p.pods(xy);
+    p.pod<std::uint64_t>(m.forces.size());
+    for (const ForcePeak& f : m.forces) {
+      p.str(f.boundary);
+      for (double v : {f.peak, f.impulse, f.t_peak}) p.pod(v);
+    }
   }
   return p.bytes();
 }
@@ -83,6 +88,13 @@ std::vector<MemberSummary> unpack_members(const std::string& bytes) {
     m.consolidation = u.pod<ConsolidationCheck>();
     const std::vector<double> xy = u.pods<double>();
     for (std::size_t i = 0; i + 1 < xy.size(); i += 2) m.profile.emplace_back(xy[i], xy[i + 1]);
+    m.forces.resize(u.pod<std::uint64_t>());
+    for (ForcePeak& f : m.forces) {
+      f.boundary = u.str();
+      f.peak = u.pod<double>();
+      f.impulse = u.pod<double>();
+      f.t_peak = u.pod<double>();
+    }
   }
   if (!u.done()) throw std::runtime_error("ranks: a message from another rank has trailing bytes");
   return ms;

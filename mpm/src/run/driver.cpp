@@ -16,6 +16,7 @@
 #include <granflow/mpm/checkpoint.hpp>
 #include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/kernels.hpp>
+#include <granflow/mpm/forces.hpp>
 #include <granflow/mpm/maps.hpp>
 
 namespace granflow::mpm {
@@ -258,6 +259,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
   int frame_no = 0;
   const std::vector<double>& mass = su.particles.m;
   TerrainMaps maps(su);  // 3D terrain runs: maps and deposit.csv from the samples
+  ForceRecorder forces(su);  // obstacle_forces.csv (output.forces)
 
   const double t_total = sc.duration();
   double t_release = 0;
@@ -290,6 +292,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
   auto sample = [&](double t, int stage) {
     settle();
     runner.frame(fr, false, su.tracked);
+    forces.sample(t, t - t_release, runner);
     sum.series.push_back({t, t - t_release, stage, Measures{}});
     for (size_t k = 0; k < su.tracked.size(); ++k) {
       const long i = su.tracked[k], n = fr.n;
@@ -312,6 +315,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     char name[64];
     std::snprintf(name, sizeof name, "frame_%04d%s.vtu", frame_no++, tag.c_str());
     write_vtu(opt.out_dir + "/" + name, f, sc.output.binary, sc.output.fields);
+    forces.write_pressure(opt.out_dir, frame_no - 1);
     pvd.emplace_back(t, name);
     write_pvd(opt.out_dir + "/frames.pvd", pvd);
   };
@@ -350,6 +354,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     stats_before = ls.stats;
     wall_before = ls.wall_s;
     maps.restore(ls.maps);
+    forces.restore(ls.forces, runner);
     sum.final = sum.series.back().m;
     runner.frame(fr, false, su.tracked);  // the current state; a sample at t would have given it
     resumed = true;
@@ -357,10 +362,12 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
       write_pvd(opt.out_dir + "/frames.pvd", pvd);
       write_series_csv(opt.out_dir, sc, sum);
       maps.write_deposit_csv(opt.out_dir);
+      forces.write_csv(opt.out_dir);
       sum.checkpoint = ckpt_path;
       at.checkpoint_t = t;
     }
   } else {
+    if (files) ForceRecorder::write_geometry(opt.out_dir, sc);
     sample(0.0, 0);
     write_frame(full_frame(), 0.0, "");
   }
@@ -399,6 +406,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     ls.stats = stats_before + runner.update_stats();
     ls.wall_s = wall_before + elapsed();
     ls.maps = maps.state();
+    ls.forces = forces.state(runner);
     // the frames it lists on disk before it (the series and index are rewritten on restart)
     for (; synced_frames < pvd.size(); ++synced_frames) io::sync_path(opt.out_dir + "/" + pvd[synced_frames].second);
     write_checkpoint(ckpt_path, c);
@@ -406,6 +414,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     at.checkpoint_t = t;
     write_series_csv(opt.out_dir, sc, sum);  // readable series up to the checkpoint
     maps.write_deposit_csv(opt.out_dir);
+    forces.write_csv(opt.out_dir);
   };
 
   bool stop = t >= t_stop - 1e-12;  // a resumed run may already be at --stop-after
@@ -504,9 +513,12 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
   sum.times = runner.times();
   sum.stats = stats_before + runner.update_stats();
 
+  sum.forces = forces.peaks();
+  sum.force_rows = forces.rows();
   if (files) {
     write_series_csv(opt.out_dir, sc, sum);
     maps.write_deposit_csv(opt.out_dir);
+    forces.write_csv(opt.out_dir);
     if (!sum.interrupted) {
       write_profile_csv(opt.out_dir + "/profile_final.csv", free_surface(sum.ok ? fr : last_good, su));
       maps.write_maps(opt.out_dir, sum.ok ? fr : last_good);  // the last sample's frame: maxima include it

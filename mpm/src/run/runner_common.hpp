@@ -38,10 +38,6 @@ GridDesc<D, S> grid_desc(const SceneSetup& su) {
   return g;
 }
 
-// Light nodes: below this fraction of a particle's mass the internal force accelerates the
-// fraction instead of the node's own mass (kernels.hpp grid_update_node).
-inline constexpr double kLightNodeMass = 0.05;
-
 // Ensembles and scenes of several materials run the kMembers instantiations (kernels.hpp,
 // Members); a single run of one material the plain ones.
 inline bool uses_members(const SceneSetup& su) { return su.members > 1 || su.scene.material_count() > 1; }
@@ -61,7 +57,7 @@ StepParams<D, S, Model> step_params(const SceneSetup& su) {
   double mmin = 1e300;
   for (double m : su.particles.m) mmin = std::min(mmin, m);
   sp.mass_eps = S(1e-8 * mmin);
-  sp.mass_floor = S(kLightNodeMass * mmin);
+  sp.mass_floor = S(su.scene.light_node_mass * mmin);
   sp.cfl = S(su.scene.cfl);
   sp.want_dt_limit = 0;
   sp.vol_avg = su.scene.volumetric_averaging ? 1 : 0;
@@ -89,7 +85,7 @@ std::vector<MemberValues<typename Model::Params, S>> member_values(const SceneSe
     for (int j = 0; j < nmat; ++j) {
       const Material& mat = su.member_materials.empty() ? su.scene.material_at(j)
                                                         : su.member_materials.at(static_cast<size_t>(k * nmat + j));
-      out.push_back({model_params<Model>(mat), S(mat.params.c.rho_p), S(1e-8 * mmin), S(kLightNodeMass * mmin)});
+      out.push_back({model_params<Model>(mat), S(mat.params.c.rho_p), S(1e-8 * mmin), S(su.scene.light_node_mass * mmin)});
     }
   }
   return out;

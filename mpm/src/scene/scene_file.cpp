@@ -322,6 +322,7 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
     sc.transfer = tpic ? mpm::Scene::Transfer::TaylorPic : mpm::Scene::Transfer::FlipPic;
     sc.flip = s->number_or("flip", tpic ? 0.0 : 0.99, Bounds::closed(0, 1));
     sc.pic_speed = s->number_or("pic_speed", 0.0, Bounds::non_negative());  // 0: no rate, flip per step
+    sc.light_node_mass = s->number_or("light_node_mass", 0.05, Bounds::closed(0, 1));
     if (s->has("flip") && sc.pic_speed > 0)
       s->fail("pic_speed", "give either flip (a fraction per step) or pic_speed (a rate), not both "
                            "(pic_speed = 0 turns the rate off)");
@@ -519,6 +520,66 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
     r->finish();
   }
 
+  for (auto& o : root.array_of_tables("obstacle")) {
+    mpm::Obstacle ob;
+    ob.key = o.dotted("kind");
+    ob.key = ob.key.substr(0, ob.key.rfind('.'));
+    sc.lines[ob.key] = o.line();
+    const std::string kinds = D == 2 ? "box, segment or polygon (2D)" : "box or cylinder (3D)";
+    if (!o.has("kind")) o.fail("kind", "required: " + kinds);
+    ob.kind = o.string("kind");
+    const bool known2 = ob.kind == "box" || ob.kind == "segment" || ob.kind == "polygon";
+    const bool known3 = ob.kind == "box" || ob.kind == "cylinder";
+    if (D == 2 ? !known2 : !known3)
+      o.fail("kind", "\"" + ob.kind + "\" " + ((D == 2 ? known3 : known2) ? "needs grid.dim = " + std::to_string(5 - D)
+                                                                    : std::string("is not an obstacle kind")) +
+                          "; a " + std::to_string(D) + "D scene takes " + kinds);
+    ob.name = o.string_or("name", ob.key);
+    for (const auto& other : sc.obstacles)
+      if (other.name == ob.name) o.fail("name", "a second obstacle named '" + ob.name + "'");
+    for (const char* k : {"kind", "name", "mu", "min", "max", "from", "to", "thickness", "x", "y", "center", "radius"})
+      note(o, k);
+    if (ob.kind == "box") {
+      const std::vector<double> lo = vec(o, "min", D), hi = vec(o, "max", D);
+      for (int d = 0; d < D; ++d)
+        if (!(hi[d] > lo[d])) o.fail("max", "must exceed min in every component");
+      if (D == 2) {  // counter-clockwise from the lower left corner: faces y-, x+, y+, x-
+        ob.poly_x = {lo[0], hi[0], hi[0], lo[0]};
+        ob.poly_y = {lo[1], lo[1], hi[1], hi[1]};
+      } else {
+        ob.shape = mpm::Obstacle::Shape::Box;
+        ob.box_min = lo;
+        ob.box_max = hi;
+      }
+    } else if (ob.kind == "segment") {  // a wall of some thickness about the line from -> to
+      const std::vector<double> a = vec(o, "from", 2), b = vec(o, "to", 2);
+      const double t = o.number("thickness", Bounds::positive());
+      const double dx = b[0] - a[0], dy = b[1] - a[1], len = std::hypot(dx, dy);
+      if (!(len > 0)) o.fail("to", "must differ from 'from'");
+      const double nx = -dy / len * t / 2, ny = dx / len * t / 2;  // half the thickness, to the left
+      ob.poly_x = {a[0] - nx, b[0] - nx, b[0] + nx, a[0] + nx};
+      ob.poly_y = {a[1] - ny, b[1] - ny, b[1] + ny, a[1] + ny};
+    } else if (ob.kind == "polygon") {
+      ob.poly_x = o.numbers("x", Bounds::any(), false);
+      ob.poly_y = o.numbers("y", Bounds::any(), false);
+      if (ob.poly_x.size() < 3) o.fail("x", "a polygon needs at least three vertices");
+      if (ob.poly_y.size() != ob.poly_x.size()) o.fail("y", "needs as many vertices as x");
+    } else {  // cylinder: a vertical pier
+      ob.shape = mpm::Obstacle::Shape::Cylinder;
+      ob.center = o.numbers("center", Bounds::any(), false);
+      if (ob.center.size() != 2) o.fail("center", "needs the axis' plan position [x, z]");
+      ob.radius = o.number("radius", Bounds::positive());
+      const std::vector<double> y = o.numbers("y", Bounds::any(), false);
+      if (y.size() != 2 || !(y[1] > y[0])) o.fail("y", "needs the pier's [bottom, top] heights, bottom below top");
+      ob.y_min = y[0];
+      ob.y_max = y[1];
+    }
+    if (o.has("mu")) ob.mu = o.number("mu", Bounds::non_negative());  // absent: no-slip
+    if (o.has("moment_point")) ob.moment_point = vec(o, "moment_point", D);
+    o.finish();
+    sc.obstacles.push_back(ob);
+  }
+
   for (auto& t : root.array_of_tables("track")) {
     mpm::Track tr;
     tr.name = t.string("name");
@@ -571,6 +632,8 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
                                 sc.terrain->file + "), e.g. " + g(std::max(1.0, k) * cs));
       sc.output.map_cell = k * cs;
     }
+    if (o->has("forces")) sc.output.forces = o->boolean_or("forces", true);
+    if (o->has("moment_point")) sc.output.moment_point = vec(*o, "moment_point", D);
     const double last = sc.stages.back().duration;
     for (double t : sc.output.times)
       if (t > last * (1 + 1e-12))

@@ -15,6 +15,8 @@
 #include <granflow/mpm/boundary.hpp>
 #include <granflow/mpm/runner.hpp>
 
+#include "scene/boundaries.hpp"
+
 namespace granflow::mpm {
 namespace {
 
@@ -480,7 +482,7 @@ SceneSetup make_setup(const Scene& sc) {
     for (const Wall& o : sc.walls)
       if (w.axis == o.axis && !w.at_max && o.at_max && !(w.position < o.position))
         fail(o.key, "this wall and " + w.key + " leave no room between them");
-  su.has_boundary = !sc.walls.empty() || sc.base.has_value() || sc.terrain.has_value();
+  su.has_boundary = !sc.walls.empty() || sc.base.has_value() || sc.terrain.has_value() || !sc.obstacles.empty();
   // Wall node rows for the boundary-modified quadratic B-splines: the last held node row of
   // each axis-aligned wall (the flume's inclined base and the gates keep truncated splines).
   su.walls.assign(D, AxisWalls{});
@@ -526,6 +528,8 @@ SceneSetup make_setup(const Scene& sc) {
   // ground) go through the terrain pass with the ground's normal there; deeper nodes are held
   // whole by the masks.
   std::vector<std::uint8_t> ground_mask;
+  const bool forces = sc.output.forces_on(!sc.obstacles.empty());
+  std::vector<TerrainNode> ground_nodes;  // every node on or below the ground (force probes)
   if (ground) {
     ground_mask.assign(su.n_nodes, 0);
     const std::uint8_t all = static_cast<std::uint8_t>((1u << D) - 1);
@@ -551,6 +555,7 @@ SceneSetup make_setup(const Scene& sc) {
           const double y = su.origin[1] + ky * sc.h;
           if (y > b + tol) break;
           const long I = kx + static_cast<long>(nd[0]) * (ky + static_cast<long>(nd[1]) * kz);
+          if (forces) ground_nodes.push_back({I, {nrm[0], nrm[1], nrm[2]}});
           if (frictional && b - y <= band)
             su.terrain.push_back({I, {nrm[0], nrm[1], nrm[2]}});
           else
@@ -662,6 +667,12 @@ SceneSetup make_setup(const Scene& sc) {
     }
     su.stage_masks.push_back(std::move(mask));
     stage_start += st.duration;
+  }
+
+  if (!sc.obstacles.empty()) detail::setup_obstacles(sc, su);
+  if (forces) {
+    std::sort(ground_nodes.begin(), ground_nodes.end(), [](const TerrainNode& a, const TerrainNode& b) { return a.node < b.node; });
+    detail::setup_force_probes(sc, su, ground_nodes);
   }
 
   // Tracked particles: nearest to the requested points.

@@ -179,4 +179,105 @@ GF_HDI void terrain_contact(const GridView<S>& gv, const TerrainNode& t, double 
   for (int d = 0; d < D; ++d) gv.f(G::VNEW + d, t.node) = v[d];
 }
 
+// ---- obstacles ----------------------------------------------------------------------------
+
+// A node inside a rigid obstacle or on its surface, with the normal (into the obstacle) of the
+// nearest face; make_setup lists them once (SceneSetup::obstacle_nodes). mu < 0: no-slip.
+struct ObstacleNode {
+  long node = 0;
+  double n[3] = {0, 0, 0};
+  double mu = -1;
+};
+
+// The obstacle's hold on a listed node's velocity after the grid update (and after the walls,
+// base, gates and terrain that also hold it): no-slip, or Coulomb contact with its face.
+template <int D, class S>
+GF_HDI void obstacle_contact(const GridView<S>& gv, const ObstacleNode& o) {
+  using G = GridLayout<D>;
+  if (o.mu < 0) {
+    for (int d = 0; d < D; ++d) gv.f(G::VNEW + d, o.node) = S(0);
+    return;
+  }
+  S v[D];
+  for (int d = 0; d < D; ++d) v[d] = gv.f(G::VNEW + d, o.node);
+  coulomb_contact<D, S>(v, o.n, o.mu);
+  for (int d = 0; d < D; ++d) gv.f(G::VNEW + d, o.node) = v[d];
+}
+
+// ---- forces on the boundaries ----------------------------------------------------------------
+
+// A node some boundary holds, measured for the force on it (SceneSetup::probes): the node, the
+// part of a boundary it counts for (a node held by several counts for the first in scene
+// order), the part's outward normal there (into the boundary) and the node's position.
+struct ForceProbe {
+  long node = 0;
+  int part = 0;
+  double n[3] = {0, 0, 0};
+  double x[3] = {0, 0, 0};
+};
+
+// Sums over the steps since the last Runner::take_forces of one part or boundary. dp: the
+// momentum the boundary's nodes removed from the material in a step (its force times dt; per
+// unit width in 2D). A step's own sums use impulse, normal, tangential and moment only.
+struct ForceSums {
+  double impulse[3] = {0, 0, 0};      // sum of dp [N s]
+  double normal = 0, tangential = 0;  // sums of dp . n and |dp - (dp . n) n|, node by node
+  double moment[3] = {0, 0, 0};       // sum of (x - moment point) x dp (2D: z only)
+  double max_force = 0;               // largest |sum of dp| / dt of one step [N]
+  double time = 0;                    // sum of dt
+  long steps = 0;
+};
+
+// Adds a probe's dp of this step to its part's step sums (moments about `about`).
+template <int D>
+GF_HDI void add_probe_momentum(ForceSums& step, const ForceProbe& p, const double* dp, const double* about) {
+  double dn = 0;
+  for (int d = 0; d < D; ++d) {
+    step.impulse[d] += dp[d];
+    dn += dp[d] * p.n[d];
+  }
+  double t2 = 0;
+  for (int d = 0; d < D; ++d) {
+    const double t = dp[d] - dn * p.n[d];
+    t2 += t * t;
+  }
+  step.normal += dn;
+  step.tangential += std::sqrt(t2);
+  double r[3] = {0, 0, 0};
+  for (int d = 0; d < D; ++d) r[d] = p.x[d] - about[d];
+  if constexpr (D == 2) {
+    step.moment[2] += r[0] * dp[1] - r[1] * dp[0];
+  } else {
+    step.moment[0] += r[1] * dp[2] - r[2] * dp[1];
+    step.moment[1] += r[2] * dp[0] - r[0] * dp[2];
+    step.moment[2] += r[0] * dp[1] - r[1] * dp[0];
+  }
+}
+
+// Adds one step's sums (of a part, or of a boundary: its parts' step sums added) to the sums
+// since the last take.
+GF_HDI void add_force_step(ForceSums& acc, const ForceSums& step, double dt) {
+  double f2 = 0;
+  for (int d = 0; d < 3; ++d) {
+    acc.impulse[d] += step.impulse[d];
+    acc.moment[d] += step.moment[d];
+    f2 += step.impulse[d] * step.impulse[d];
+  }
+  acc.normal += step.normal;
+  acc.tangential += step.tangential;
+  const double f = std::sqrt(f2) / dt;
+  if (f > acc.max_force) acc.max_force = f;
+  acc.time += dt;
+  acc.steps += 1;
+}
+
+GF_HDI void add_step_sums(ForceSums& a, const ForceSums& b) {
+  for (int d = 0; d < 3; ++d) {
+    a.impulse[d] += b.impulse[d];
+    a.moment[d] += b.moment[d];
+  }
+  a.normal += b.normal;
+  a.tangential += b.tangential;
+}
+
 }  // namespace granflow::mpm

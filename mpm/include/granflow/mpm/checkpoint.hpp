@@ -39,6 +39,7 @@ struct LoopState {
   UpdateStats stats;        // summed over the steps before the checkpoint
   double wall_s = 0;
   MapsState maps;           // 3D terrain runs: the maps' maxima and deposit rows so far
+  ForcesState forces;       // boundary forces: rows so far, the runner's sums since the last sample
 };
 
 struct Checkpoint {

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "forces.hpp"
 #include "runner.hpp"
 
 namespace granflow::mpm {
@@ -70,6 +71,8 @@ struct RunSummary {
   std::string device;
   int interrupted = 0;     // the interrupt value that stopped the run (0: not interrupted)
   std::string checkpoint;  // the checkpoint written last (empty: none, or removed at the end)
+  std::vector<ForcePeak> forces;  // per boundary with force probes (output.forces)
+  std::vector<ForceRow> force_rows;  // obstacle_forces.csv's rows
 };
 
 RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt);

@@ -43,6 +43,7 @@ struct MemberSummary {
   std::vector<TrackRow> tracks;
   ConsolidationCheck consolidation;
   std::vector<std::pair<double, double>> profile;  // free surface of the last good sample
+  std::vector<ForcePeak> forces;  // per boundary with force probes: peak force and impulse
 };
 
 struct EnsembleSummary {

@@ -247,6 +247,45 @@ GF_HDI void grid_update_node(const GridView<S>& gv, long I, const StepParams<D, 
   }
 }
 
+// ---- forces on the boundaries ------------------------------------------------------------
+
+// The grid update's velocity of node I before any hold, recomputed as grid_update_node computes
+// it (vd, with the stage's damping) and without damping (v), and the node's mass (0 for an empty
+// node, whose velocities are then zero). Taken after P2G: the CUDA grid kernel clears mass,
+// momentum and force.
+template <int D, class S, class Model>
+GF_HDI double trial_velocity(const GridView<S>& gv, long I, const StepParams<D, S, Model>& sp, double* v,
+                             double* vd) {
+  using G = GridLayout<D>;
+  for (int d = 0; d < D; ++d) v[d] = vd[d] = 0;
+  const S m = gv.f(G::M, I);
+  if (!(m > sp.mass_eps)) return 0;
+  for (int d = 0; d < D; ++d) {
+    const S vo = gv.f(G::P + d, I) / m;
+    S a = gv.f(G::F + d, I) / (m > sp.mass_floor ? m : sp.mass_floor) + sp.gravity[d];
+    v[d] = static_cast<double>(vo + sp.dt * a);
+    if (sp.damping > S(0)) a -= sp.damping * std::fabs(a) * (vo > S(0) ? S(1) : (vo < S(0) ? S(-1) : S(0)));
+    vd[d] = static_cast<double>(vo + sp.dt * a);
+  }
+  return static_cast<double>(m);
+}
+
+// The momentum the boundaries removed from node I in this step, after every hold of the step:
+// m (v - v_new) in each component a hold changed (v_new differs from the damped trial vd), zero
+// in the others. The undamped trial v: at a held node the velocity mapped from the points is
+// nearly zero and of either sign, and Cundall's damping term (damping |a| against that sign) is
+// no force of the boundary's.
+template <int D, class S>
+GF_HDI void removed_momentum(const GridView<S>& gv, long I, double m, const double* v, const double* vd, double* dp) {
+  using G = GridLayout<D>;
+  constexpr double rel = sizeof(S) == sizeof(double) ? 1e-9 : 1e-5;  // the grid kernel may round differently
+  for (int d = 0; d < D; ++d) {
+    const double vn = static_cast<double>(gv.f(G::VNEW + d, I));
+    const bool held = std::fabs(vn - vd[d]) > rel * (std::fabs(vd[d]) + std::fabs(vn)) + 1e-300;
+    dp[d] = held ? m * (v[d] - vn) : 0.0;
+  }
+}
+
 // ---- 3. G2P and constitutive update ------------------------------------------------------
 
 // 2D plane strain: the in-plane gradient embedded in 3x3 with a zero z row and column.

@@ -27,6 +27,20 @@ struct HostParticles {
   std::vector<double> eps, e, s;  // s = sqrt(T)
 };
 
+// A part of a boundary whose force is reported: the probes [first, first + count) of
+// SceneSetup::probes, and the point its moments are taken about.
+struct ForcePart {
+  int boundary = 0;
+  std::string name;  // "x-" (a wall), "base", "ground", an obstacle's face ("y+", "face2", "side")
+  long first = 0, count = 0;
+  double moment_point[3] = {0, 0, 0};
+};
+
+struct BoundaryForces {
+  std::vector<ForceSums> parts, boundaries;  // SceneSetup::force_parts, force_boundaries
+  std::vector<double> node_impulse;          // sum of dp per probe, component-major (dim x probes)
+};
+
 struct SceneSetup {
   Scene scene;
   HostParticles particles;
@@ -43,6 +57,14 @@ struct SceneSetup {
   // nodes and no-slip terrain are held by the masks.
   std::vector<TerrainNode> terrain;
   double terrain_mu = 0;
+  // Obstacles (docs/mpm_obstacles.md): the nodes inside each or on its surface, with the
+  // normal of the nearest face, for the step's obstacle pass (runs only when non-empty).
+  std::vector<ObstacleNode> obstacle_nodes;
+  // Forces on the boundaries (output.forces; none: no force pass): the measured nodes, in the
+  // order of their parts, and the parts (a wall, the base, the terrain, an obstacle's face).
+  std::vector<ForceProbe> probes;
+  std::vector<ForcePart> force_parts;
+  std::vector<std::string> force_boundaries;  // ForcePart::boundary indexes it
   // Per body: the volume its points stand for (count times spacing^dim) and the volume of its
   // shape (release volumes: the integral of top - bottom over the plan, sampled at a quarter
   // spacing).
@@ -189,6 +211,10 @@ class Runner {
   virtual void upload(const HostParticles& in) = 0;
   virtual PhaseTimes times() const = 0;
   virtual void reset_times() = 0;
+  // Forces on the boundaries since the last take (SceneSetup::probes; empty when none),
+  // zeroed unless `keep` (a checkpoint); restore_forces puts a checkpoint's sums back.
+  virtual void take_forces(BoundaryForces& out, bool keep = false) { out = {}; (void)keep; }
+  virtual void restore_forces(const BoundaryForces& in) { (void)in; }
   // CPU twin only (the CUDA backend records them per particle but does not sum them yet).
   virtual UpdateStats update_stats() const { return {}; }
   virtual std::string device() const = 0;

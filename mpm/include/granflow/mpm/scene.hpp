@@ -81,6 +81,24 @@ struct Terrain {
   std::shared_ptr<const io::Raster> raster;
 };
 
+// A rigid, fixed obstacle in the flow (docs/mpm_obstacles.md): every node inside it or on its
+// surface is held, no-slip or (mu) by Coulomb friction with the normal of its nearest face.
+// 2D: a polygon (a box, a wall segment of some thickness, or polygon_x/polygon_y as given); 3D:
+// an axis-aligned box or a vertical cylinder (a pier).
+struct Obstacle {
+  enum class Shape { Polygon, Box, Cylinder };
+  Shape shape = Shape::Polygon;
+  std::string name;                  // for the force rows ("obstacle[k]" when none is given)
+  std::string key;                   // "obstacle[k]", for messages
+  std::string kind;                  // as the scene gave it: box, segment, polygon, cylinder
+  std::vector<double> poly_x, poly_y;  // 2D: counter-clockwise vertices
+  std::vector<double> box_min, box_max;  // 3D box
+  std::vector<double> center;        // cylinder: axis at (center[0], center[1]) in x and z
+  double radius = 0, y_min = 0, y_max = 0;  // cylinder
+  std::optional<double> mu;          // absent: no-slip
+  std::vector<double> moment_point;  // moments about it (default: the centroid)
+};
+
 struct Gate {
   std::vector<double> point, normal;
   bool normal_only = true;  // hold only the normal component (axis-aligned normals only)
@@ -145,6 +163,11 @@ struct OutputSpec {
   std::vector<double> deposit_direction = {1.0, 0.0};
   // 3D terrain runs: the maps' cell size [m], a whole multiple of the raster's; 0: the raster's.
   double map_cell = 0;
+  // The forces on obstacles, walls, base and terrain (obstacle_forces.csv); default: on when the
+  // scene has an obstacle. Walls, base and terrain take moments about moment_point (default 0).
+  std::optional<bool> forces;
+  std::vector<double> moment_point;
+  bool forces_on(bool has_obstacles) const { return forces.value_or(has_obstacles); }
 };
 
 // The point arrays a VTU frame may carry (output.fields), in the order they are written.
@@ -183,6 +206,11 @@ struct Scene {
   enum class Transfer { FlipPic, TaylorPic };
   Transfer transfer = Transfer::FlipPic;
   bool volumetric_averaging = false;  // cell-averaged tr L in the constitutive update
+  // Light nodes (kernels.hpp grid_update_node): below this fraction of the lightest point's mass
+  // the internal force accelerates the fraction instead of the node's own mass. It keeps a node
+  // reached only by a stencil's edge from flinging its neighbours' points, and it is the one term
+  // of the step that does not conserve momentum (docs/mpm_obstacles.md); 0 turns it off.
+  double light_node_mass = 0.05;
   Precision precision = Precision::FP64;
   std::vector<double> gravity;
 
@@ -199,6 +227,7 @@ struct Scene {
   std::vector<Wall> walls;
   std::optional<BaseLine> base;
   std::optional<Terrain> terrain;
+  std::vector<Obstacle> obstacles;
   std::vector<Stage> stages;
 
   // Run-out is the curvilinear abscissa, along this polyline, of the front of the contiguous

@@ -1,0 +1,21 @@
+// Set-up of the obstacles and of the boundary-force probes (make_setup's helpers).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <granflow/mpm/runner.hpp>
+
+namespace granflow::mpm::detail {
+
+// Checks the scene's obstacles (size against the grid, material inside) and lists their nodes
+// with the normal of the nearest face (SceneSetup::obstacle_nodes). Needs the particles seeded.
+void setup_obstacles(const Scene& sc, SceneSetup& su);
+
+// Lists the nodes each boundary holds as force probes, grouped in parts (output.forces): the
+// obstacles in scene order, the walls in scene order, the base, the terrain (its nodes with the
+// ground's normal); a node held by several counts for the first of them. `ground` lists every node on or below
+// the terrain (empty without one).
+void setup_force_probes(const Scene& sc, SceneSetup& su, const std::vector<TerrainNode>& ground);
+
+}  // namespace granflow::mpm::detail
