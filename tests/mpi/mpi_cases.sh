@@ -13,9 +13,10 @@ SCENE=$SRC/mpm/scenes/column_collapse_ci.toml
 fail() { echo "FAIL: $*"; exit 1; }
 rm -rf "$W" && mkdir -p "$W" && cd "$W" || exit 1
 
-# The CI column on a 20 mm grid, 0.06 s consolidation, DUR s of collapse (fixed step 2e-4 s).
+# The CI column on a 20 mm grid, CONS s consolidation (default 0.06), DUR s of collapse (fixed
+# step 2e-4 s): sets DUR [CONS].
 sets() {
-  echo "\"grid.h=0.02\", \"grid.size=[0.6, 0.16]\", \"time.dt=2e-4\", \"stage[0].duration=0.06\", \"stage[1].duration=$1\", \"output.times=[0.02, $1]\", \"output.series_dt=0.01\""
+  echo "\"grid.h=0.02\", \"grid.size=[0.6, 0.16]\", \"time.dt=2e-4\", \"stage[0].duration=${2:-0.06}\", \"stage[1].duration=$1\", \"output.times=[0.02, $1]\", \"output.series_dt=0.01\""
 }
 set_args() {
   echo "--set grid.h=0.02 --set grid.size=[0.6,0.16] --set time.dt=2e-4 --set stage[0].duration=0.06 --set stage[1].duration=$1 --set output.times=[0.02,$1] --set output.series_dt=0.01"
@@ -32,7 +33,7 @@ range = [18.0, 22.0]
 key = "material.e0"
 range = [0.93, 0.97]
 D
-# job ITERATIONS DURATION: ES-MDA over phi_c with 4 members, no polish
+# job ITERATIONS DURATION [CONSOLIDATION]: ES-MDA over phi_c with 4 members, no polish
 job() {
   cat <<J
 params = "column_collapse"
@@ -51,7 +52,7 @@ upper = 25.0
 kind = "mpm_scene"
 name = "column"
 scene = "$SCENE"
-set = [$(sets "$2")]
+set = [$(sets "$2" "${3:-0.06}")]
 backend = "cpu"
 progress = false
 [experiments.surface]
@@ -89,8 +90,9 @@ ensemble_equal)  # 4 members over 2 ranks = one process, bit for bit (fixed step
   grep -q '^# status: complete' two/granflow.manifest || fail "no complete manifest"
   grep -q 'member_0003/runout.csv' two/granflow.manifest || fail "the manifest misses rank 1's members"
   ;;
-calibrate_equal)  # one ES-MDA iteration over 2 ranks = one process
-  job 1 0.04 > job.toml
+calibrate_equal)  # one ES-MDA iteration over 2 ranks = one process (short: 0.03 s + 0.02 s)
+  printf 't,x\n0.01,0.205\n0.02,0.21\n' > front.csv
+  job 1 0.02 0.03 > job.toml
   $G calibrate job.toml --out one --no-plot --quiet --threads 1 > one.txt 2>&1 || fail "one process: $(cat one.txt)"
   $MPIRUN $G calibrate job.toml --out two --no-plot --quiet --threads 1 > two.txt 2>&1 || fail "2 ranks: $(cat two.txt)"
   same_calibration one two

@@ -70,7 +70,8 @@ struct Solid {
     return in;
   }
 
-  bool hold(const double* x, double tol, double* n, int& face) const {
+  // depth: the distance to that face.
+  bool hold(const double* x, double tol, double* n, int& face, double* depth = nullptr) const {
     double best = std::numeric_limits<double>::max();
     if (ob.shape == Obstacle::Shape::Polygon) {
       double nn[3];
@@ -84,6 +85,7 @@ struct Solid {
         }
         near = near || d <= tol;
       }
+      if (depth) *depth = best;
       return near || inside_polygon(x[0], x[1]);
     }
     if (ob.shape == Obstacle::Shape::Box) {
@@ -99,11 +101,13 @@ struct Solid {
           n[d] = f % 2 ? -1.0 : 1.0;  // into the box
         }
       }
+      if (depth) *depth = best;
       return true;
     }
     const double rx = x[0] - ob.center[0], rz = x[2] - ob.center[1], r = std::hypot(rx, rz);
     if (r > ob.radius + tol || x[1] < ob.y_min - tol || x[1] > ob.y_max + tol) return false;
     const double side = ob.radius - r, bottom = x[1] - ob.y_min, top = ob.y_max - x[1];
+    if (depth) *depth = std::min({side, bottom, top});
     n[0] = n[1] = n[2] = 0;
     if (side <= bottom && side <= top) {
       face = 0;
@@ -277,6 +281,10 @@ void setup_force_probes(const Scene& sc, SceneSetup& su, const std::vector<Terra
     double n[3] = {0, 0, 0};
   };
   std::vector<Owner> owner(su.n_nodes);
+  // Only nodes material can reach carry mass: a stencil reaches 1.5 h per axis, and under a
+  // slope a node that far aside lies up to as much again below the surface. Deeper nodes are
+  // held but never measured (their dp is zero): 3 h.
+  const double reach = 3 * h;
   auto add_part = [&](const std::string& boundary, const std::string& name, const double* point) {
     if (su.force_boundaries.empty() || su.force_boundaries.back() != boundary) su.force_boundaries.push_back(boundary);
     ForcePart p;
@@ -306,7 +314,8 @@ void setup_force_probes(const Scene& sc, SceneSetup& su, const std::vector<Terra
     for_nodes(su, D, nlo, nhi, h, [&](long I, const double* x) {
       double n[3];
       int face = 0;
-      if (solid.hold(x, tol, n, face)) claim(I, first + face, n);
+      double depth = 0;
+      if (solid.hold(x, tol, n, face, &depth) && depth <= reach) claim(I, first + face, n);
     });
   }
   for (size_t w = 0; w < sc.walls.size(); ++w) {
@@ -316,7 +325,8 @@ void setup_force_probes(const Scene& sc, SceneSetup& su, const std::vector<Terra
     double n[3] = {0, 0, 0};
     n[wall.axis] = wall.at_max ? 1.0 : -1.0;
     for_nodes(su, D, lo, hi, h, [&](long I, const double* x) {
-      if (beyond_wall(wall.axis, wall.at_max, wall.position, x, tol)) claim(I, part, n);
+      if (beyond_wall(wall.axis, wall.at_max, wall.position, x, tol) && std::fabs(x[wall.axis] - wall.position) <= reach)
+        claim(I, part, n);
     });
   }
   if (sc.base) {
@@ -338,7 +348,7 @@ void setup_force_probes(const Scene& sc, SceneSetup& su, const std::vector<Terra
             break;
           }
       }
-      if (x[1] <= y + tol) claim(I, part, n);
+      if (x[1] <= y + tol && x[1] >= y - reach) claim(I, part, n);
     });
   }
   if (!ground.empty()) {

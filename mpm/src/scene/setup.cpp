@@ -550,12 +550,13 @@ SceneSetup make_setup(const Scene& sc) {
                                   ") lies below the grid (y from " + fmt(sc.origin[1]) +
                                   "): lower grid.origin[1] or raise terrain.origin[2]");
         double nrm[3] = {0, -1, 0};
-        const double band = frictional ? 2 * sc.h * (1 + std::sqrt(2.0) * ground->normal(xc, zc, nrm)) : 0;
+        const double slope = frictional || forces ? ground->normal(xc, zc, nrm) : 0.0;
+        const double band = 2 * sc.h * (1 + std::sqrt(2.0) * slope);  // reach of a stencil (frictional ground, force probes)
         for (int ky = 0; ky < nd[1]; ++ky) {
           const double y = su.origin[1] + ky * sc.h;
           if (y > b + tol) break;
           const long I = kx + static_cast<long>(nd[0]) * (ky + static_cast<long>(nd[1]) * kz);
-          if (forces) ground_nodes.push_back({I, {nrm[0], nrm[1], nrm[2]}});
+          if (forces && b - y <= band) ground_nodes.push_back({I, {nrm[0], nrm[1], nrm[2]}});
           if (frictional && b - y <= band)
             su.terrain.push_back({I, {nrm[0], nrm[1], nrm[2]}});
           else
