@@ -30,15 +30,7 @@ Scene block_base_scene(int dim) {
   Scene sc = test::tiny_column(ModelKind::Frictional);
   sc.material = flume_scene(0.04, 1e-4, ModelKind::Frictional, ShapeKind::Linear, 0.1).material;
   sc.dim = dim;
-  sc.walls.clear();
-  sc.tracks.clear();
-  sc.output.times.clear();
-  sc.runout_x.clear();
-  sc.runout_y.clear();
-  Stage s;
-  s.name = "slide";
-  s.duration = 0.3;
-  sc.stages = {s};
+  test::one_open_stage(sc, "slide", 0.3);
   return sc;
 }
 

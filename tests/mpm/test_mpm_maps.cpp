@@ -73,17 +73,8 @@ Scene block_scene(double x0, double x1, double z0, double z1, double height, dou
   sc.size = {0.2, 0.24, 0.2};
   sc.h = 0.02;
   sc.gravity = {0.0, -9.81, 0.0};
-  sc.walls.clear();
-  sc.tracks.clear();
-  sc.runout_x.clear();
-  sc.runout_y.clear();
-  sc.output.times.clear();
+  test::one_open_stage(sc, "run", duration, damping);
   sc.output.series_dt = 0.01;
-  Stage s;
-  s.name = "run";
-  s.duration = duration;
-  s.damping = damping;
-  sc.stages = {s};
   Body b;
   b.box_min = {x0, 0.0, z0};
   b.box_max = {x1, height, z1};

@@ -30,16 +30,7 @@ Scene open_scene(ShapeKind shape, double duration, double damping) {
   sc.dt = 1e-4;
   sc.origin = {0.0, 0.0};
   sc.size = {0.4, 0.2};
-  sc.walls.clear();
-  sc.tracks.clear();
-  sc.output.times.clear();
-  sc.runout_x.clear();
-  sc.runout_y.clear();
-  Stage s;
-  s.name = "load";
-  s.duration = duration;
-  s.damping = damping;
-  sc.stages = {s};
+  test::one_open_stage(sc, "load", duration, damping);
   return sc;
 }
 

@@ -2,6 +2,8 @@
 // and the consolidation block.
 #pragma once
 
+#include <string>
+
 #include <granflow/mpm/layout.hpp>
 #include <granflow/mpm/runner.hpp>
 #include <granflow/mpm/scene.hpp>
@@ -31,6 +33,21 @@ inline Scene tiny_column(ModelKind model, ShapeKind shape = ShapeKind::Linear) {
   sc.output.times = {0.3};
   sc.output.series_dt = 0.01;
   return sc;
+}
+
+// The scene stripped to its grid, material and bodies: no walls, tracked points, frames or run-out
+// line, and one stage `name` of `duration` with `damping`.
+inline void one_open_stage(Scene& sc, const std::string& name, double duration, double damping = 0) {
+  sc.walls.clear();
+  sc.tracks.clear();
+  sc.output.times.clear();
+  sc.runout_x.clear();
+  sc.runout_y.clear();
+  Stage s;
+  s.name = name;
+  s.duration = duration;
+  s.damping = damping;
+  sc.stages = {s};
 }
 
 // A 20 x 10 cm block between two free-slip walls on a no-slip floor, stress free at t = 0,
