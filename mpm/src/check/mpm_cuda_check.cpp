@@ -393,19 +393,24 @@ std::string padded(const char* fmt, const std::string& a, const char* b, const c
   return buf;
 }
 
+// The CUDA runner of a 3D set-up, or null (a line saying so) where the 3D kernels are not compiled.
+std::unique_ptr<Runner> cuda_runner_or_skip(const SceneSetup& su, const char* cuda, const std::string& name) {
+  try {
+    return make_cuda_runner(su, cuda_options(cuda));
+  } catch (const std::runtime_error& e) {
+    if (!std::strstr(e.what(), "3D CUDA kernels are not compiled")) throw;
+    std::printf("%s: skipped (%s)\n", name.c_str(), e.what());
+    return nullptr;
+  }
+}
+
 // The terrain slide on both back ends: run-out, height and every particle's final position.
 // Skipped (true) where the 3D CUDA kernels are not compiled.
 bool terrain_case(const char* cuda, bool short_run, double tol) {
   const Scene sc = terrain_slide_scene(short_run ? 0.1 : 0.25);
   const SceneSetup su = make_setup(sc);
-  std::unique_ptr<Runner> gpu;
-  try {
-    gpu = make_cuda_runner(su, cuda_options(cuda));
-  } catch (const std::runtime_error& e) {
-    if (!std::strstr(e.what(), "3D CUDA kernels are not compiled")) throw;
-    std::printf("%s: skipped (%s)\n", sc.name.c_str(), e.what());
-    return true;
-  }
+  const std::unique_ptr<Runner> gpu = cuda_runner_or_skip(su, cuda, sc.name);
+  if (!gpu) return true;
   return agrees_with_twin(su, *gpu, padded("%-55s %s", sc.name, cuda),
                           ", " + std::to_string(su.terrain.size()) + " terrain nodes", tol);
 }
@@ -497,14 +502,8 @@ bool materials_3d_case(ModelKind model, ShapeKind shape, const char* cuda, bool 
   b1.material = 1;
   sc.bodies = {b0, b1};
   const SceneSetup su = make_setup(sc);
-  std::unique_ptr<Runner> gpu;
-  try {
-    gpu = make_cuda_runner(su, cuda_options(cuda));
-  } catch (const std::runtime_error& e) {
-    if (!std::strstr(e.what(), "3D CUDA kernels are not compiled")) throw;
-    std::printf("%s: skipped (%s)\n", sc.name.c_str(), e.what());
-    return true;
-  }
+  const std::unique_ptr<Runner> gpu = cuda_runner_or_skip(su, cuda, sc.name);
+  if (!gpu) return true;
   const char* shape_name = shape == ShapeKind::Linear ? "linear" : "quadratic";
   return agrees_with_twin(su, *gpu, padded("%-55s %-9s %s", sc.name, shape_name, cuda), "", tol);
 }

@@ -331,24 +331,21 @@ void setup_force_probes(const Scene& sc, SceneSetup& su, const std::vector<Terra
   }
   if (sc.base) {
     const int part = add_part("base", "base", about);
-    const BaseLine& b = *sc.base;
+    std::vector<BaseSegment> seg;  // the contact table's segments (boundary.hpp), as contact_node reads them
+    for (size_t i = 1; i < sc.base->x.size(); ++i)
+      seg.push_back({sc.base->x[i - 1], sc.base->y[i - 1], sc.base->x[i], sc.base->y[i]});
+    const int ns = static_cast<int>(seg.size());
     for_nodes(su, D, lo, hi, h, [&](long I, const double* x) {
-      const size_t m = b.x.size();
-      double n[3] = {0, -1, 0};
-      double y = b.y.front();
-      if (x[0] >= b.x.back()) {
-        y = b.y.back();
-      } else if (x[0] > b.x.front()) {
-        for (size_t i = 1; i < m; ++i)
-          if (x[0] <= b.x[i]) {
-            const double dx = b.x[i] - b.x[i - 1], dy = b.y[i] - b.y[i - 1], len = std::hypot(dx, dy);
-            y = b.y[i - 1] + dy * (x[0] - b.x[i - 1]) / dx;
-            n[0] = dy / len;
-            n[1] = -dx / len;
-            break;
-          }
+      const int i = base_segment_at(seg.data(), ns, x[0]);
+      const double y = base_height(seg.data(), ns, i, x[0]);
+      if (x[1] > y + tol || x[1] < y - reach) return;
+      double n[3] = {0, -1, 0};  // level beyond the ends; else the segment's normal into the base
+      if (i >= 0 && i < ns) {
+        const double dx = seg[i].x1 - seg[i].x0, dy = seg[i].y1 - seg[i].y0, len = std::hypot(dx, dy);
+        n[0] = dy / len;
+        n[1] = -dx / len;
       }
-      if (x[1] <= y + tol && x[1] >= y - reach) claim(I, part, n);
+      claim(I, part, n);
     });
   }
   if (!ground.empty()) {
