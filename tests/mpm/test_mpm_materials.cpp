@@ -188,7 +188,7 @@ TEST(MpmMaterials, EnsembleOfTwoMaterialScenesEqualsItsSingleRuns) {
   for (int k = 0; k < 2; ++k) expect_same_points(all, k * ms[0].particles.n, run_steps(ms[k], steps), "member " + std::to_string(k));
 }
 
-// A 140 x 8 cm block on a 25 deg slope (gravity tilted over a no-slip floor, 20 mm grid, its
+// A 280 x 8 cm block on a 25 deg slope (gravity tilted over a no-slip floor, 20 mm grid, its
 // upslope end at a free-slip wall): a strong layer (phi_c 35 deg) over a layer two cells thick
 // of phi_c `weak_deg`, at rest at t = 0 (the infinite slope's stresses), 0.2 s. Both layers
 // harden faster than the column's sand (k_p 0.001), so that the strong one mobilizes its
@@ -200,12 +200,12 @@ struct SlopeResult {
 };
 
 SlopeResult slope(double weak_deg) {
-  constexpr double kLength = 1.4, kWeakTop = 0.04, kTop = 0.08, kEnd = 0.2, kTaper = 0.14;
+  constexpr double kLength = 2.8, kWeakTop = 0.04, kTop = 0.08, kEnd = 0.2, kTaper = 0.14;
   Scene sc = small_column_scene(ModelKind::Frictional);
   sc.h = 0.02;
   sc.dt = 1e-4;
-  sc.size = {1.6, 0.24};
-  sc.walls[1].position = 1.6;
+  sc.size = {3.0, 0.24};
+  sc.walls[1].position = 3.0;
   const double g = 9.81, tilt = 25 * kDeg;
   sc.gravity = {g * std::sin(tilt), -g * std::cos(tilt)};
   Stage st;
@@ -271,16 +271,16 @@ SlopeResult slope(double weak_deg) {
   return {lower / all, inner_lower / inner, dx / double(upper)};
 }
 
-// The ends of a cohesionless block yield whatever lies under it: with the downslope end tapered
-// 88.1 % of the plastic shear strain lies in the weak layer over the whole block (85.8 % with a
-// face perpendicular to the slope; the goal 90 %), 93.1 % away from the ends.
+// The ends of a cohesionless block yield whatever lies under it, so their share falls with the
+// block's length: 93.5 % of the plastic shear strain lies in the weak layer over the whole block,
+// 96.6 % away from the ends (a 1.4 m block: 88.1 and 93.1 %).
 TEST(MpmMaterials, LayeredBlockSlidesOnItsWeakLayerAndStaysOnAStrongOne) {
   const SlopeResult weak = slope(20), strong = slope(35);
   std::printf("slope 25 deg, weak layer phi_c 20: %.3f of the plastic shear strain in the weak layer (%.3f away from "
               "the ends), slide %.4f m; both 35: slide %.5f m\n",
               weak.weak_share, weak.inner_share, weak.slide, strong.slide);
   EXPECT_GE(weak.inner_share, 0.9) << "plastic shear strain in the weak layer, away from the block's ends";
-  EXPECT_GE(weak.weak_share, 0.8) << "plastic shear strain in the weak layer, whole block";
+  EXPECT_GE(weak.weak_share, 0.9) << "plastic shear strain in the weak layer, whole block";
   EXPECT_GT(weak.slide, 0.01) << "mean downslope displacement of the strong layer [m]";
   EXPECT_LT(std::fabs(strong.slide), 0.002) << "both layers strong";
   EXPECT_GT(weak.slide, 10 * std::fabs(strong.slide));
