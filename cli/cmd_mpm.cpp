@@ -341,9 +341,10 @@ void run_mpm(const MpmOptions& o) {
   for (const mpm::ForcePeak& f : s.forces)
     std::printf("force on %s: peak %.4g %s at t = %.4g s, impulse %.4g %s\n", f.boundary.c_str(), f.peak,
                 sc.dim == 2 ? "N/m" : "N", f.t_peak, f.impulse, sc.dim == 2 ? "N s/m" : "N s");
-  std::printf("output: %s (frames.pvd, runout.csv, tracked.csv, profile_final.csv%s%s)\n", out.c_str(),
+  std::printf("output: %s (frames.pvd, runout.csv, tracked.csv, profile_final.csv%s%s%s)\n", out.c_str(),
               sc.dim == 3 && sc.terrain ? ", deposit.csv, maps/" : "",
-              s.forces.empty() ? "" : (sc.obstacles.empty() ? ", obstacle_forces.csv" : ", obstacle_forces.csv, obstacles.vtu"));
+              s.forces.empty() ? "" : (sc.obstacles.empty() ? ", obstacle_forces.csv" : ", obstacle_forces.csv, obstacles.vtu"),
+              sc.gauges.empty() ? "" : ", gauges.csv");
   if (g_signal != 0) {
     std::fprintf(stderr, "PNG snapshots skipped: interrupted after the run had completed\n");
   } else if (!o.no_png) {

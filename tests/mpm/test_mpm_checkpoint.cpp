@@ -72,6 +72,10 @@ Checkpoint sample_checkpoint(long n, int dim) {
   for (size_t k = 0; k < 4; ++k)
     s.tracks.push_back({0.02 * k, 0.02 * k - 0.05, k % 3, u(rng), u(rng), u(rng), u(rng), u(rng), u(rng), u(rng),
                         u(rng), u(rng), u(rng)});
+  for (size_t k = 0; k < 2; ++k)  // gauge rows (format version 4)
+    s.gauges.push_back({0.01 * k, 0.01 * k - 0.05, k, u(rng), u(rng), u(rng), u(rng), u(rng), static_cast<long>(7 + k)});
+  for (int k = 0; k < 2 * 3; ++k)  // two materials' measures per series row (format version 4)
+    s.material_series.push_back({u(rng), u(rng), u(rng), u(rng), u(rng), u(rng)});
   s.last_good.n = n;
   s.last_good.dim = dim;
   fill(s.last_good.x, dim * n);
@@ -210,6 +214,12 @@ TEST(MpmCheckpoint, EncodeDecodeRoundTripIsExact) {
     EXPECT_EQ(d.loop.tracks[3].track, 0u);
     EXPECT_EQ(d.loop.tracks[2].K_col, c.loop.tracks[2].K_col);
     EXPECT_EQ(d.loop.series[2].m.max_T, c.loop.series[2].m.max_T);
+    ASSERT_EQ(d.loop.material_series.size(), 6u);
+    EXPECT_EQ(d.loop.material_series[5].max_T, c.loop.material_series[5].max_T);
+    ASSERT_EQ(d.loop.gauges.size(), 2u);
+    EXPECT_EQ(d.loop.gauges[1].gauge, 1u);
+    EXPECT_EQ(d.loop.gauges[1].mass_flux, c.loop.gauges[1].mass_flux);
+    EXPECT_EQ(d.loop.gauges[1].points, 8);
     EXPECT_TRUE(same_bits(d.loop.last_good.T, c.loop.last_good.T));
     EXPECT_EQ(d.loop.stats.tension_cutoff, 311);
     EXPECT_TRUE(d.loop.consolidation.done);
@@ -271,8 +281,19 @@ TEST(MpmCheckpoint, RefusesAnotherSceneOrASetUpItDoesNotFit) {
   c.loop.t = 0.01;
   c.loop.next_out = 0;
   for (auto& r : c.loop.tracks) r.track = 0;
+  const std::vector<GaugeRow> gauges = c.loop.gauges;  // rows of gauges this scene does not have
+  c.loop.gauges.clear();
+  c.loop.material_series.clear();  // measures of two materials: the scene has one
   c.scene_hash = 7;
   EXPECT_NO_THROW(check_checkpoint(c, su, 7));
+  Checkpoint g = c;
+  g.loop.gauges = gauges;
+  try {
+    check_checkpoint(g, su, 7);
+    FAIL() << "accepted a checkpoint with rows of a gauge the scene does not have";
+  } catch (const CheckpointError& e) {
+    EXPECT_NE(std::string(e.what()).find("gauge 0"), std::string::npos) << e.what();
+  }
   try {
     check_checkpoint(c, su, 8);
     FAIL() << "accepted another scene's checkpoint";

@@ -6,7 +6,10 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 
+#include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/ensemble.hpp>
 #include <granflow/mpm/kernels.hpp>
 #include <granflow/mpm/runner.hpp>
@@ -161,6 +164,49 @@ TEST(MpmMaterials, FallingBlocksWithoutWallsEqualTheirSingleMaterialRuns) {
   ASSERT_EQ(su.stage_masks.size(), 1u);
   EXPECT_EQ(su.stage_masks[0], std::vector<std::uint8_t>(su.n_nodes, 0));  // no node held, no contact table
   expect_blocks_equal_single_runs(sc);
+}
+
+// Per-material series (materials.csv): each material's run-out, height and energies are those
+// of its single-material run, bit for bit (the twin keeps the points in their set-up order).
+TEST(MpmMaterials, PerMaterialSeriesAreThoseOfTheSingleMaterialRuns) {
+  const Scene sc = two_blocks(ModelKind::Frictional, ShapeKind::Linear);
+  const auto dir = std::filesystem::temp_directory_path() / "granflow_materials_series";
+  std::filesystem::remove_all(dir);
+  auto run_scene = [&](const Scene& s, const std::string& out) {
+    const SceneSetup su = make_setup(s);
+    auto r = make_cpu_runner(su);
+    RunOptions opt;
+    opt.progress = false;
+    opt.out_dir = out;
+    return run(su, *r, opt);
+  };
+  const RunSummary two = run_scene(sc, dir.string());
+  ASSERT_TRUE(two.ok) << two.message;
+  for (int k = 0; k < 2; ++k) {
+    const RunSummary one = run_scene(one_block(sc, k), "");
+    ASSERT_EQ(one.series.size(), two.series.size());
+    ASSERT_EQ(two.material_series.size(), 2 * two.series.size());
+    EXPECT_TRUE(one.material_series.empty());
+    for (size_t i = 0; i < one.series.size(); ++i) {
+      const Measures &a = two.material_series[2 * i + k], &b = one.series[i].m;
+      EXPECT_EQ(a.runout, b.runout) << "material " << k << ", sample " << i;
+      EXPECT_EQ(a.height, b.height);
+      EXPECT_EQ(a.kinetic_energy, b.kinetic_energy);
+      EXPECT_EQ(a.max_speed, b.max_speed);
+    }
+  }
+  std::ifstream in(dir / "materials.csv");
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "t,t_flow,stage,material,runout,height,max_speed,kinetic_energy,mean_T,max_T");
+  long rows = 0, of_b = 0;
+  while (std::getline(in, line)) {
+    ++rows;
+    of_b += line.find(",b,") != std::string::npos;
+  }
+  EXPECT_EQ(rows, 2 * static_cast<long>(two.series.size()));
+  EXPECT_EQ(of_b, static_cast<long>(two.series.size()));
+  std::filesystem::remove_all(dir);
 }
 
 // 3D scenes of several materials are compiled in fp64 only.

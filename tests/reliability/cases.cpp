@@ -402,6 +402,12 @@ std::vector<Case> all_cases() {
       {"obstacle_cylinder_in_2d", {{"scene.toml", kScene + "[[obstacle]]\nkind = \"cylinder\"\n"}}, kMpm, kInput, {"scene.toml:23", "'obstacle[0].kind'", "\"cylinder\" needs grid.dim = 3", "box, segment or polygon"}},
       {"obstacle_polygon_two_vertices", {{"scene.toml", kScene + "[[obstacle]]\nkind = \"polygon\"\nx = [0.15, 0.19]\ny = [0.0, 0.05]\n"}}, kMpm, kInput, {"scene.toml:24", "'obstacle[0].x'", "at least three vertices"}},
       {"obstacle_negative_mu", {{"scene.toml", kScene + "[[obstacle]]\nkind = \"segment\"\nfrom = [0.16, 0.0]\nto = [0.16, 0.06]\nthickness = 0.04\nmu = -0.2\n"}}, kMpm, kInput, {"scene.toml:27", "'obstacle[0].mu'"}},
+      // ---- gauges ([[gauge]], docs/mpm_results.md) ----------------------------------------------
+      {"gauge_outside_grid", {{"scene.toml", kScene + "[[gauge]]\nfrom = [0.15, 0.0]\nto = [0.15, 0.5]\n"}}, kMpm, kInput, {"scene.toml:24", "'gauge[0].to'", "lies outside the grid"}},
+      {"gauge_of_zero_length", {{"scene.toml", kScene + "[[gauge]]\nfrom = [0.15, 0.0]\nto = [0.15, 0.0]\n"}}, kMpm, kInput, {"scene.toml:24", "'gauge[0].to'", "must differ from 'from'"}},
+      {"gauge_width_zero", {{"scene.toml", kScene + "[[gauge]]\nfrom = [0.15, 0.0]\nto = [0.15, 0.05]\nwidth = 0.0\n"}}, kMpm, kInput, {"scene.toml:25", "'gauge[0].width'"}},
+      {"gauge_named_twice", {{"scene.toml", kScene + "[[gauge]]\nname = \"g\"\nfrom = [0.15, 0.0]\nto = [0.15, 0.05]\n[[gauge]]\nname = \"g\"\nfrom = [0.12, 0.0]\nto = [0.12, 0.05]\n"}}, kMpm, kInput, {"scene.toml:27", "'gauge[1].name'", "a second gauge named 'g'"}},
+      {"gauge_in_3d_scene", {{"t3.toml", kTerrainScene + "[[gauge]]\nfrom = [0.05, 0.0, 0.05]\nto = [0.05, 0.1, 0.05]\n"}, {"dem.asc", dem()}}, kT3, kInput, {"'gauge[0].from'", "gauges are 2D only"}},
       {"base_profile_not_increasing", {{"scene.toml", kScene + "[base]\nfile = \"p.csv\"\n"}, {"p.csv", "x,y\n0,0\n0.1,0\n0.05,0\n"}}, kMpm, kInput, {"scene.toml:23", "'base.file'", "p.csv", "must increase strictly"}},
       {"release_top_missing", {{"t3.toml", edit(kTerrainScene, "min = [0.02, 0.04, 0.02]\nmax = [0.06, 0.08, 0.06]", "top = \"top.asc\"")}, {"dem.asc", dem()}}, kT3, kInput, {"t3.toml:19", "'body[0].top'", "top.asc: no such raster file"}},
       // ---- --set and --params over the scene (granflow mpm, bench mpm) ------------------------------

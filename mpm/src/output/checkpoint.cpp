@@ -15,7 +15,7 @@ namespace granflow::mpm {
 namespace {
 
 constexpr char kMagic[8] = {'G', 'F', 'M', 'P', 'M', 'C', 'K', 'P'};
-constexpr std::uint32_t kVersion = 3;  // 2: the maps of terrain runs; 3: boundary forces
+constexpr std::uint32_t kVersion = 4;  // 2: the maps of terrain runs; 3: boundary forces; 4: gauges, per-material series
 constexpr std::uint32_t kByteOrder = 0x01020304;
 constexpr size_t kHeader = 8 + 4 + 4 + 8 + 8;
 
@@ -176,12 +176,23 @@ std::string encode_checkpoint(const Checkpoint& c) {
     w.pod(static_cast<std::int32_t>(r.stage));
     for (double v : {r.m.runout, r.m.height, r.m.max_speed, r.m.kinetic_energy, r.m.mean_T, r.m.max_T}) w.pod(v);
   }
+  w.pod(static_cast<std::uint64_t>(s.material_series.size()));
+  for (const Measures& m : s.material_series)
+    for (double v : {m.runout, m.height, m.max_speed, m.kinetic_energy, m.mean_T, m.max_T}) w.pod(v);
   w.pod(static_cast<std::uint64_t>(s.tracks.size()));
   for (const TrackRow& r : s.tracks) {
     w.pod(r.t);
     w.pod(r.t_flow);
     w.pod(static_cast<std::uint64_t>(r.track));
     for (double v : {r.x, r.y, r.vx, r.vy, r.p, r.q, r.eps_pd, r.T, r.eta_c, r.K_col}) w.pod(v);
+  }
+  w.pod(static_cast<std::uint64_t>(s.gauges.size()));
+  for (const GaugeRow& r : s.gauges) {
+    w.pod(r.t);
+    w.pod(r.t_flow);
+    w.pod(static_cast<std::uint64_t>(r.gauge));
+    for (double v : {r.depth, r.u, r.u_along, r.density, r.mass_flux}) w.pod(v);
+    w.pod(static_cast<std::int64_t>(r.points));
   }
   write_frame_light(w, s.last_good);
   w.pod(s.last_good_t);
@@ -281,6 +292,10 @@ Checkpoint decode_checkpoint(std::string_view b) {
     for (double* v : {&m.runout, &m.height, &m.max_speed, &m.kinetic_energy, &m.mean_T, &m.max_T}) *v = r.pod<double>();
     s.series.push_back(row);
   }
+  for (std::uint64_t j = 0, nm = r.count(48, "per-material series"); j < nm; ++j) {
+    Measures& q = s.material_series.emplace_back();
+    for (double* v : {&q.runout, &q.height, &q.max_speed, &q.kinetic_energy, &q.mean_T, &q.max_T}) *v = r.pod<double>();
+  }
   for (std::uint64_t k = 0, n = r.count(104, "tracked series"); k < n; ++k) {
     TrackRow row;
     row.t = r.pod<double>();
@@ -289,6 +304,15 @@ Checkpoint decode_checkpoint(std::string_view b) {
     for (double* v : {&row.x, &row.y, &row.vx, &row.vy, &row.p, &row.q, &row.eps_pd, &row.T, &row.eta_c, &row.K_col})
       *v = r.pod<double>();
     s.tracks.push_back(row);
+  }
+  for (std::uint64_t k = 0, n = r.count(72, "gauge series"); k < n; ++k) {
+    GaugeRow row;
+    row.t = r.pod<double>();
+    row.t_flow = r.pod<double>();
+    row.gauge = r.pod<std::uint64_t>();
+    for (double* v : {&row.depth, &row.u, &row.u_along, &row.density, &row.mass_flux}) *v = r.pod<double>();
+    row.points = r.pod<std::int64_t>();
+    s.gauges.push_back(row);
   }
   s.last_good = read_frame_light(r);
   s.last_good_t = r.pod<double>();
@@ -372,6 +396,12 @@ void check_checkpoint(const Checkpoint& c, const SceneSetup& su, std::uint64_t s
     why = "last good frame of " + std::to_string(s.last_good.n) + " points";
   for (const TrackRow& r : s.tracks)
     if (why.empty() && r.track >= sc.tracks.size()) why = "tracked point " + std::to_string(r.track);
+  for (const GaugeRow& r : s.gauges)
+    if (why.empty() && r.gauge >= sc.gauges.size()) why = "gauge " + std::to_string(r.gauge);
+  const size_t per_row = sc.material_count() > 1 ? sc.material_count() : 0;
+  if (why.empty() && s.material_series.size() != per_row * s.series.size())
+    why = std::to_string(s.material_series.size()) + " per-material measures for " + std::to_string(s.series.size()) +
+          " samples of " + std::to_string(sc.material_count()) + " materials";
   if (why.empty()) {
     const TerrainMaps maps(su);
     if (s.maps.max_speed.size() != maps.state().max_speed.size())

@@ -74,14 +74,20 @@ long span_length(const Span& s, long cap) {
   return n;
 }
 
-Measures measure(const Frame& fr, const SceneSetup& su, const std::vector<double>& mass) {
+Measures measure(const Frame& fr, const SceneSetup& su, const std::vector<double>& mass, int material) {
   const Scene& sc = su.scene;
   const Polyline line(sc);
   const long n = fr.n;
   Measures m;
+  // one material's points (a scene of several), else all
+  auto skip = [&](long i) { return material >= 0 && su.point_material[i] != material; };
+  long count = n;
+  if (material >= 0) count = std::count(su.point_material.begin(), su.point_material.end(), material);
+  if (count == 0) return m;
   std::vector<double> s(n), a(n);
   double smin = std::numeric_limits<double>::max(), smax = -smin;
   for (long i = 0; i < n; ++i) {
+    if (skip(i)) continue;
     line.project(fr.x[i], fr.x[n + i], s[i], a[i]);
     smin = std::min(smin, s[i]);
     smax = std::max(smax, s[i]);
@@ -90,7 +96,7 @@ Measures measure(const Frame& fr, const SceneSetup& su, const std::vector<double
     m.max_speed = std::max(m.max_speed, std::sqrt(v2));
     m.kinetic_energy += 0.5 * mass[i] * v2;
     if (!fr.T.empty()) {
-      m.mean_T += fr.T[i] / n;
+      m.mean_T += fr.T[i] / count;
       m.max_T = std::max(m.max_T, fr.T[i]);
     }
   }
@@ -100,7 +106,8 @@ Measures measure(const Frame& fr, const SceneSetup& su, const std::vector<double
   const double w = sc.h;
   const long nb = static_cast<long>((smax - smin) / w) + 1;
   std::vector<long> occ(nb, 0);
-  for (long i = 0; i < n; ++i) ++occ[static_cast<long>((s[i] - smin) / w)];
+  for (long i = 0; i < n; ++i)
+    if (!skip(i)) ++occ[static_cast<long>((s[i] - smin) / w)];
   long first = 0, last = 0, best = -1;
   for (long b = 0; b < nb;) {
     if (!occ[b]) { ++b; continue; }
@@ -112,7 +119,7 @@ Measures measure(const Frame& fr, const SceneSetup& su, const std::vector<double
   const double s_begin = smin + first * w, s_end = smin + (last + 1) * w;
   double front = s_begin;
   for (long i = 0; i < n; ++i)
-    if (s[i] >= s_begin && s[i] < s_end) {
+    if (!skip(i) && s[i] >= s_begin && s[i] < s_end) {
       front = std::max(front, s[i]);
       m.height = std::max(m.height, a[i]);
     }
@@ -237,6 +244,22 @@ void write_profile_csv(const std::string& path, const std::vector<std::pair<doub
 namespace {
 void write_series_csv(const std::string& dir, const Scene& sc, const RunSummary& sum) {
   write_series_csv(dir, sc, sum.series, sum.tracks);
+  write_gauges_csv(dir, sc, sum.gauges);
+  const size_t nm = sc.material_count();
+  if (nm > 1 && sum.material_series.size() == nm * sum.series.size()) {  // runout.csv's measures per material
+    std::ostringstream c;
+    c.precision(8);
+    c << "t,t_flow,stage,material,runout,height,max_speed,kinetic_energy,mean_T,max_T\n";
+    for (size_t i = 0; i < sum.series.size(); ++i)
+      for (size_t k = 0; k < nm; ++k) {
+        const SeriesRow& r = sum.series[i];
+        const Measures& m = sum.material_series[i * nm + k];
+        c << r.t << ',' << r.t_flow << ',' << r.stage << ',' << sc.material_at(static_cast<int>(k)).label << ','
+          << m.runout << ',' << m.height << ',' << m.max_speed << ',' << m.kinetic_energy << ',' << m.mean_T << ','
+          << m.max_T << '\n';
+      }
+    write_text(dir + "/materials.csv", c.str());
+  }
 }
 }  // namespace
 
@@ -304,8 +327,14 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     const size_t row = sum.series.size() - 1;
     pending = std::async(std::launch::async, [&, row, t] {
       const Measures m = measure(fr, su, mass);
+      std::vector<Measures> per_material;
+      if (sc.material_count() > 1)
+        for (int k = 0; k < sc.material_count(); ++k) per_material.push_back(measure(fr, su, mass, k));
       maps.sample(t, t - t_release, fr);
-      sum.series[row].m = m;  // the main thread touches only .t of this row until settle()
+      for (const GaugeRow& g : measure_gauges(fr, su, mass, t, t - t_release)) sum.gauges.push_back(g);
+      sum.series[row].m = m;
+      // the worker appends in sample order: settle() precedes the next sample
+      sum.material_series.insert(sum.material_series.end(), per_material.begin(), per_material.end());  // the main thread touches only .t of this row until settle()
       sum.final = m;
       last_good = fr;
     });
@@ -348,6 +377,8 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     pvd = ls.pvd;
     sum.series = ls.series;
     sum.tracks = ls.tracks;
+    sum.gauges = ls.gauges;
+    sum.material_series = ls.material_series;
     last_good = ls.last_good;
     last_good_t = ls.last_good_t;
     sum.consolidation = ls.consolidation;
@@ -399,6 +430,8 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     ls.pvd = pvd;
     ls.series = sum.series;
     ls.tracks = sum.tracks;
+    ls.gauges = sum.gauges;
+    ls.material_series = sum.material_series;
     ls.last_good = last_good;
     ls.last_good.subset.clear();
     ls.last_good_t = last_good_t;

@@ -588,6 +588,26 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
     sc.tracks.push_back(tr);
   }
 
+  for (auto& g : root.array_of_tables("gauge")) {
+    mpm::Gauge ga;
+    std::string key = g.dotted("from");
+    key = key.substr(0, key.rfind('.'));
+    if (D != 2) g.fail("from", "gauges are 2D only (a cross-section line); a 3D scene has none");
+    ga.name = g.string_or("name", key);
+    for (const auto& other : sc.gauges)
+      if (other.name == ga.name) g.fail("name", "a second gauge named '" + ga.name + "'");
+    ga.from = vec(g, "from", 2);
+    ga.to = vec(g, "to", 2);
+    if (!(std::hypot(ga.to[0] - ga.from[0], ga.to[1] - ga.from[1]) > 0)) g.fail("to", "must differ from 'from'");
+    for (const auto* pt : {&ga.from, &ga.to})
+      for (int d = 0; d < 2; ++d)
+        if ((*pt)[d] < sc.origin[d] || (*pt)[d] > sc.origin[d] + sc.size[d])
+          g.fail(pt == &ga.from ? "from" : "to", "lies outside the grid");
+    ga.width = g.number_or("width", sc.h, Bounds::positive());
+    g.finish();
+    sc.gauges.push_back(ga);
+  }
+
   if (auto o = root.optional_table("output")) {
     if (o->has("times")) sc.output.times = o->numbers("times", Bounds::non_negative());
     sc.output.series_dt = o->number_or("series_dt", 1e-3, Bounds::positive());

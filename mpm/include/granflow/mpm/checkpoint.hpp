@@ -33,6 +33,8 @@ struct LoopState {
   std::vector<std::pair<double, std::string>> pvd;
   std::vector<SeriesRow> series;
   std::vector<TrackRow> tracks;
+  std::vector<GaugeRow> gauges;
+  std::vector<Measures> material_series;  // RunSummary::material_series
   Frame last_good;          // light frame of the last sample (x, v, T)
   double last_good_t = 0;
   ConsolidationCheck consolidation;

@@ -31,7 +31,8 @@ struct RunOptions {
 struct Measures {
   double runout = 0, height = 0, max_speed = 0, kinetic_energy = 0, mean_T = 0, max_T = 0;
 };
-Measures measure(const Frame& fr, const SceneSetup& su, const std::vector<double>& mass);
+// material >= 0: of that material's points only (su.point_material), for scenes of several.
+Measures measure(const Frame& fr, const SceneSetup& su, const std::vector<double>& mass, int material = -1);
 // Free surface: for bins of one grid cell along x, the highest particle top (x, y).
 std::vector<std::pair<double, double>> free_surface(const Frame& fr, const SceneSetup& su);
 
@@ -45,6 +46,21 @@ struct TrackRow {
   size_t track;
   double x, y, vx, vy, p, q, eps_pd, T, eta_c, K_col;
 };
+
+// One sample of a gauge (Scene::gauges): the contiguous run of points along the line that holds
+// the most mass, within width/2 of it. depth: its extent along the line; u: the mass-weighted
+// velocity across the line (positive to the right of from -> to), u_along: along it; density:
+// its mass over depth x width; mass_flux: rho h u [kg/(m s)]. All zero where no point is near.
+struct GaugeRow {
+  double t, t_flow;
+  size_t gauge;
+  double depth, u, u_along, density, mass_flux;
+  long points;
+};
+std::vector<GaugeRow> measure_gauges(const Frame& fr, const SceneSetup& su, const std::vector<double>& mass,
+                                     double t, double t_flow);
+// dir/gauges.csv (written only for a scene with gauges).
+void write_gauges_csv(const std::string& dir, const Scene& sc, const std::vector<GaugeRow>& rows);
 
 // Vertical stress against rho g depth at the end of the first stage, away from the walls.
 struct ConsolidationCheck {
@@ -73,6 +89,10 @@ struct RunSummary {
   std::string checkpoint;  // the checkpoint written last (empty: none, or removed at the end)
   std::vector<ForcePeak> forces;  // per boundary with force probes (output.forces)
   std::vector<ForceRow> force_rows;  // obstacle_forces.csv's rows
+  std::vector<GaugeRow> gauges;      // gauges.csv's rows
+  // Scenes of several materials: per series row, each material's measures (row-major;
+  // materials.csv). Empty otherwise, and in ensembles.
+  std::vector<Measures> material_series;
 };
 
 RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt);

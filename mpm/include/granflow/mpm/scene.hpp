@@ -150,6 +150,14 @@ struct Track {
   std::vector<double> x;  // the particle nearest to this point at t = 0
 };
 
+// A cross-section of the flow (2D): a line from the base (`from`) across the flow (`to`). Each
+// sample measures the points within width/2 of it: depth, depth-averaged velocity, density.
+struct Gauge {
+  std::string name;
+  std::vector<double> from, to;
+  double width = 0;  // band about the line [m]
+};
+
 struct OutputSpec {
   std::vector<double> times;     // frames, measured from the start of the last stage
   double series_dt = 1e-3;       // sampling of run-out, height and tracked particles
@@ -234,6 +242,7 @@ struct Scene {
   // deposit; height is the largest distance above it (the floor in the column collapse).
   std::vector<double> runout_x, runout_y;
   std::vector<Track> tracks;
+  std::vector<Gauge> gauges;
   OutputSpec output;
   std::map<std::string, long> lines;  // scene files: line of each key make_setup may name
   // --set assignments applied over the file, as given and in order (a restart must repeat them)
