@@ -438,6 +438,53 @@ bool obstacle_case(ModelKind model, ShapeKind shape, std::optional<double> mu, c
   return agrees_with_twin(su, *gpu, padded("%-55s %-9s %s", sc.name, shape_name, cuda), "", tol);
 }
 
+// 3D (GRANFLOW_MPM_CUDA_3D; skipped, true, without it): the CI column as a slab 8 cm wide
+// between free-slip side walls, released at once, into a low box (no-slip) and a pier (mu 0.3):
+// every boundary's impulse on both back ends, as above.
+bool obstacle_3d_case(ModelKind model, ShapeKind shape, const char* cuda, bool short_run, double tol) {
+  Scene sc = small_column_scene(model, shape);
+  sc.name += ", 3D slab, low box and pier";
+  sc.dim = 3;
+  sc.origin = {0.0, 0.0, 0.0};
+  sc.size = {0.40, 0.16, 0.08};
+  sc.gravity = {0.0, -9.81, 0.0};
+  sc.walls[1].position = 0.40;
+  sc.walls.push_back({2, false, 0.0, false, "wall[3].side"});
+  sc.walls.push_back({2, true, 0.08, false, "wall[4].side"});
+  sc.runout_x = {0.0, 0.40};
+  sc.runout_y = {0.0, 0.0};
+  sc.tracks.clear();
+  sc.output.times.clear();
+  sc.bodies[0].box_min.push_back(0.0);
+  sc.bodies[0].box_max.push_back(0.08);
+  Stage st;
+  st.name = "collapse";
+  st.duration = short_run ? 0.1 : 0.25;
+  sc.stages = {st};
+  Obstacle box, pier;
+  box.name = "low box";
+  box.key = "obstacle[0]";
+  box.kind = "box";
+  box.shape = Obstacle::Shape::Box;
+  box.box_min = {0.21, 0.0, 0.0};  // reached within the short run's 0.1 s
+  box.box_max = {0.24, 0.03, 0.04};
+  pier.name = "pier";
+  pier.key = "obstacle[1]";
+  pier.kind = "cylinder";
+  pier.shape = Obstacle::Shape::Cylinder;
+  pier.center = {0.27, 0.06};
+  pier.radius = 0.02;
+  pier.y_min = 0.0;
+  pier.y_max = 0.06;
+  pier.mu = 0.3;
+  sc.obstacles = {box, pier};
+  const SceneSetup su = make_setup(sc);
+  const std::unique_ptr<Runner> gpu = cuda_runner_or_skip(su, cuda, sc.name);
+  if (!gpu) return true;
+  const char* shape_name = shape == ShapeKind::Linear ? "linear" : "quadratic";
+  return agrees_with_twin(su, *gpu, padded("%-55s %-9s %s", sc.name, shape_name, cuda), "", tol);
+}
+
 // ---- several materials -------------------------------------------------------------------------
 // The CI column as two layers (issue 34): the lower 4 cm a looser, weaker sand (e0 + 0.03,
 // phi_c - 4 deg, rho_p 2500), the rest as before; the GPU (the kMembers kernels with a material
@@ -538,14 +585,15 @@ int main(int argc, char** argv) {
                         {ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, false, "", true},
                         {ModelKind::Frictional, ShapeKind::Linear, false, "graphs off", true}};
   // --short: 0.1 s of collapse; --ensembles: the ensemble cases only (e.g. under compute-sanitizer)
-  // --materials: the cases of several materials only
-  bool short_run = false, ensembles_only = false, materials_only = false;
+  // --materials: the cases of several materials only; --obstacles: the obstacle cases only
+  bool short_run = false, ensembles_only = false, materials_only = false, obstacles_only = false;
   for (int i = 1; i < argc; ++i) {
     short_run = short_run || std::strcmp(argv[i], "--short") == 0;
     ensembles_only = ensembles_only || std::strcmp(argv[i], "--ensembles") == 0;
     materials_only = materials_only || std::strcmp(argv[i], "--materials") == 0;
+    obstacles_only = obstacles_only || std::strcmp(argv[i], "--obstacles") == 0;
   }
-  if (!ensembles_only) {
+  if (!ensembles_only && !obstacles_only) {
     fails += materials_case(ModelKind::PhaseTransition, ShapeKind::Linear, "", short_run, tol) ? 0 : 1;
     fails += materials_case(ModelKind::Frictional, ShapeKind::QuadraticBSpline, "sort 1, graphs off", short_run, tol) ? 0 : 1;
     fails += materials_case(ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, "sort 7, g2p-split on", short_run, tol) ? 0 : 1;
@@ -557,7 +605,10 @@ int main(int argc, char** argv) {
   if (!ensembles_only) {
     fails += obstacle_case(ModelKind::PhaseTransition, ShapeKind::Linear, std::nullopt, "", short_run, tol) ? 0 : 1;
     fails += obstacle_case(ModelKind::Frictional, ShapeKind::QuadraticBSpline, 0.3, "sort 1, graphs off", short_run, tol) ? 0 : 1;
+    fails += obstacle_3d_case(ModelKind::Frictional, ShapeKind::Linear, "", short_run, tol) ? 0 : 1;
+    fails += obstacle_3d_case(ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, "sort 1, graphs off", short_run, tol) ? 0 : 1;
   }
+  if (obstacles_only) return fails == 0 ? 0 : 1;
   for (const Case& c : cases) {
     if (ensembles_only) break;
     const CudaOptions co = cuda_options(c.cuda);
