@@ -28,6 +28,10 @@
 #                  members of the 5 mm column (fp32, fp64), 16 of the 1 mm column (fp32)
 #   study          the flume parameter study (mpm/scenes/ensembles/flume_study.toml, 64 members,
 #                  lifting gate, 0.8 s of flow, CFL step), summary in study_summary.csv
+#   loadcell-pt, loadcell-fr  the load-cell flume (mpm/scenes/loadcell, docs/mpm_results.md) at
+#                  45-65 deg, phase-transition or frictional-only model, 2 s of flow, CFL step
+#   loadcell-ens   the 45 deg load-cell flume's peak force over flume_study.toml (64 members,
+#                  fp32, 1.5 s of flow, 5 ms force samples); analysis: scripts/loadcell_study.py
 #   ensemble-batched  the batched runs of the ensemble part only, the 5 mm one also sampled
 #                  sparsely (ENS_1MM=0: without the 1 mm ensemble)
 #   ensemble-diag  the 64-member column sampled sparsely; a 1 mm member alone, twice
@@ -368,6 +372,28 @@ part_study() {
   tar czf "$RES/study_profiles.tgz" -C "$R/flume_study" $(cd "$R/flume_study" && ls -d member_*/profile_final.csv member_*/runout.csv) 2>/dev/null
 }
 
+# The load-cell flume: forces on the wall at the end of the slope (docs/mpm_results.md).
+loadcell_runs() {
+  local model=$1 a
+  shift
+  for a in 45 50 55 60 65; do
+    run "${model}_$a" 240 "$SC/loadcell/loadcell_$a.toml" "$@"
+    mkdir -p "$RES/loadcell/${model}_$a"
+    cp "$R/${model}_$a"/{obstacle_forces,gauges,runout}.csv "$RES/loadcell/${model}_$a/" 2>/dev/null
+  done
+}
+part_loadcell_pt() { loadcell_runs pt; }
+part_loadcell_fr() { loadcell_runs fr --set material.model=frictional; }
+part_loadcell_ens() {
+  ens lc45_study "${STUDY_CAP:-500}" "$SC/loadcell/loadcell_45.toml" "$SC/ensembles/flume_study.toml" \
+    --set 'stage[1].gate.point=[0.35355, 1.27279]' --set 'stage[1].gate.normal=[1.0, 0.0]' \
+    --set 'stage[1].duration=1.5' --set 'output.times=[1.5]' --set output.series_dt=0.005 --precision fp32
+  tail -c 400 "$R/lc45_study.txt"
+  mkdir -p "$RES/loadcell/ens45"
+  cp "$R/lc45_study/summary.csv" "$RES/loadcell/ens45/" 2>/dev/null
+  (cd "$R/lc45_study" && tar czf "$RES/loadcell/ens45/members.tgz" member_*/obstacle_forces.csv) 2>/dev/null
+}
+
 # The 64-member 5 mm column (fp32; fp64 with the split off) under the CUDA fast-path options.
 part_ensemble_options() {
   local o t c="--set grid.h=0.005 --set time.dt=5e-5"
@@ -511,8 +537,8 @@ main() {
   local part fn f t0 status=0
   for part in "$@"; do
     case $part in
-      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options | flow | sanitize-ensemble) ;;
-      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options flow sanitize-ensemble)" >&2
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options | flow | sanitize-ensemble | loadcell-pt | loadcell-fr | loadcell-ens) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options flow sanitize-ensemble loadcell-pt loadcell-fr loadcell-ens)" >&2
          return 2 ;;
     esac
   done
