@@ -322,16 +322,7 @@ TEST(MpmObstacles, SceneFileKeysGiveTheirShapes) {
   s3.gravity = {0.0, -9.81, 0.0};
   s3.bodies[0].box_min = {0.0, 0.0, 0.0};
   s3.bodies[0].box_max = {0.1, 0.05, 0.2};
-  Obstacle pier;
-  pier.name = "pier";
-  pier.key = "obstacle[0]";
-  pier.kind = "cylinder";
-  pier.shape = Obstacle::Shape::Cylinder;
-  pier.center = {0.25, 0.1};
-  pier.radius = 0.03;
-  pier.y_min = 0.0;
-  pier.y_max = 0.1;
-  s3.obstacles = {pier};
+  s3.obstacles = {pier_obstacle("pier", "obstacle[0]", {0.25, 0.1}, 0.03, 0.0, 0.1)};
   const SceneSetup su = make_setup(s3);
   long inside = 0;
   for (int i = 0; i < su.nodes[0]; ++i)

@@ -404,6 +404,15 @@ std::unique_ptr<Runner> cuda_runner_or_skip(const SceneSetup& su, const char* cu
   }
 }
 
+// A 3D case on both back ends (agrees_with_twin); skipped (true) where the 3D CUDA kernels are
+// not compiled.
+bool agrees_with_twin_3d(const SceneSetup& su, ShapeKind shape, const char* cuda, double tol) {
+  const std::unique_ptr<Runner> gpu = cuda_runner_or_skip(su, cuda, su.scene.name);
+  if (!gpu) return true;
+  const char* shape_name = shape == ShapeKind::Linear ? "linear" : "quadratic";
+  return agrees_with_twin(su, *gpu, padded("%-55s %-9s %s", su.scene.name, shape_name, cuda), "", tol);
+}
+
 // The terrain slide on both back ends: run-out, height and every particle's final position.
 // Skipped (true) where the 3D CUDA kernels are not compiled.
 bool terrain_case(const char* cuda, bool short_run, double tol) {
@@ -461,28 +470,17 @@ bool obstacle_3d_case(ModelKind model, ShapeKind shape, const char* cuda, bool s
   st.name = "collapse";
   st.duration = short_run ? 0.1 : 0.25;
   sc.stages = {st};
-  Obstacle box, pier;
+  Obstacle box;
   box.name = "low box";
   box.key = "obstacle[0]";
   box.kind = "box";
   box.shape = Obstacle::Shape::Box;
   box.box_min = {0.21, 0.0, 0.0};  // reached within the short run's 0.1 s
   box.box_max = {0.24, 0.03, 0.04};
-  pier.name = "pier";
-  pier.key = "obstacle[1]";
-  pier.kind = "cylinder";
-  pier.shape = Obstacle::Shape::Cylinder;
-  pier.center = {0.27, 0.06};
-  pier.radius = 0.02;
-  pier.y_min = 0.0;
-  pier.y_max = 0.06;
+  Obstacle pier = pier_obstacle("pier", "obstacle[1]", {0.27, 0.06}, 0.02, 0.0, 0.06);
   pier.mu = 0.3;
   sc.obstacles = {box, pier};
-  const SceneSetup su = make_setup(sc);
-  const std::unique_ptr<Runner> gpu = cuda_runner_or_skip(su, cuda, sc.name);
-  if (!gpu) return true;
-  const char* shape_name = shape == ShapeKind::Linear ? "linear" : "quadratic";
-  return agrees_with_twin(su, *gpu, padded("%-55s %-9s %s", sc.name, shape_name, cuda), "", tol);
+  return agrees_with_twin_3d(make_setup(sc), shape, cuda, tol);
 }
 
 // ---- several materials -------------------------------------------------------------------------
@@ -529,10 +527,13 @@ bool materials_case(ModelKind model, ShapeKind shape, const char* cuda, bool sho
 // 3D (GRANFLOW_MPM_CUDA_3D; skipped, true, without it): the terrain slide of terrain_case as
 // two blocks side by side, the downhill one (x > 0.13 m) a looser, weaker sand (e0 + 0.03,
 // phi_c - 4 deg, rho_p 2650): the 3D kMembers kernels (fp64) with the terrain pass, GPU against
-// the CPU twin, same tolerances.
-bool materials_3d_case(ModelKind model, ShapeKind shape, const char* cuda, bool short_run, double tol) {
+// the CPU twin, same tolerances; in fp32 and mixed the twin runs the same precision.
+bool materials_3d_case(ModelKind model, ShapeKind shape, const char* cuda, bool short_run, double tol,
+                       Precision precision = Precision::FP64) {
   Scene sc = terrain_slide_scene(short_run ? 0.1 : 0.25);
   sc.name = "terrain slide, two materials side by side";
+  sc.precision = precision;
+  if (precision != Precision::FP64) sc.name += std::string(", ") + precision_name(precision);
   sc.shape = shape;
   if (shape == ShapeKind::QuadraticBSpline) sc.transfer = Scene::Transfer::TaylorPic;
   sc.material = flume_scene(0.04, 1e-4, model, ShapeKind::Linear, 0.1).material;
@@ -548,11 +549,7 @@ bool materials_3d_case(ModelKind model, ShapeKind shape, const char* cuda, bool 
   b1.plan_x = {0.13, 0.2, 0.2, 0.13};
   b1.material = 1;
   sc.bodies = {b0, b1};
-  const SceneSetup su = make_setup(sc);
-  const std::unique_ptr<Runner> gpu = cuda_runner_or_skip(su, cuda, sc.name);
-  if (!gpu) return true;
-  const char* shape_name = shape == ShapeKind::Linear ? "linear" : "quadratic";
-  return agrees_with_twin(su, *gpu, padded("%-55s %-9s %s", sc.name, shape_name, cuda), "", tol);
+  return agrees_with_twin_3d(make_setup(sc), shape, cuda, tol);
 }
 
 }  // namespace
@@ -600,6 +597,8 @@ int main(int argc, char** argv) {
     fails += materials_case(ModelKind::Frictional, ShapeKind::Linear, "", short_run, tol, true) ? 0 : 1;
     fails += materials_3d_case(ModelKind::Frictional, ShapeKind::Linear, "", short_run, tol) ? 0 : 1;
     fails += materials_3d_case(ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, "sort 1, graphs off", short_run, tol) ? 0 : 1;
+    fails += materials_3d_case(ModelKind::Frictional, ShapeKind::QuadraticBSpline, "", short_run, tol, Precision::FP32) ? 0 : 1;
+    fails += materials_3d_case(ModelKind::PhaseTransition, ShapeKind::Linear, "", short_run, tol, Precision::Mixed) ? 0 : 1;
   }
   if (materials_only) return fails == 0 ? 0 : 1;
   if (!ensembles_only) {

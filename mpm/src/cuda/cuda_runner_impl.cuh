@@ -284,14 +284,14 @@ std::unique_ptr<Runner> make_cuda_runner_t(const SceneSetup& su, const CudaOptio
 // GF_MPM_CUDA_INSTANTIATE_ENSEMBLE: ensembles (kMembers), 2D with boundary code, storage S
 // (cuda_kernels_ens_*.cu).
 // GF_MPM_CUDA_INSTANTIATE_MATERIALS_3D: single runs of several materials in 3D (kMembers, with
-// boundary code, fp64; cuda_kernels_mat3d_*.cu, compiled only with GRANFLOW_MPM_CUDA_3D).
+// boundary code, storage S; cuda_kernels_mat3d_*.cu, compiled only with GRANFLOW_MPM_CUDA_3D).
 #define GF_MPM_CUDA_INSTANTIATE_ONE_M(D, S, MODEL, SHAPE, KB, KM)                                                \
   template std::unique_ptr<granflow::mpm::Runner> granflow::mpm::make_cuda_runner_t<D, S, MODEL, SHAPE, KB, KM>( \
       const granflow::mpm::SceneSetup&, const granflow::mpm::CudaOptions&);
 #define GF_MPM_CUDA_INSTANTIATE_ONE(D, S, MODEL, SHAPE, KB) GF_MPM_CUDA_INSTANTIATE_ONE_M(D, S, MODEL, SHAPE, KB, false)
 #define GF_MPM_CUDA_INSTANTIATE_ENSEMBLE(S, MODEL, SHAPE) GF_MPM_CUDA_INSTANTIATE_ONE_M(2, S, MODEL, SHAPE, true, true)
-#define GF_MPM_CUDA_INSTANTIATE_MATERIALS_3D(MODEL, SHAPE) \
-  GF_MPM_CUDA_INSTANTIATE_ONE_M(3, double, MODEL, SHAPE, true, true)
+#define GF_MPM_CUDA_INSTANTIATE_MATERIALS_3D(S, MODEL, SHAPE) \
+  GF_MPM_CUDA_INSTANTIATE_ONE_M(3, S, MODEL, SHAPE, true, true)
 #define GF_MPM_CUDA_INSTANTIATE_D(D, MODEL, SHAPE)                 \
   GF_MPM_CUDA_INSTANTIATE_ONE(D, double, MODEL, SHAPE, false) \
   GF_MPM_CUDA_INSTANTIATE_ONE(D, double, MODEL, SHAPE, true)

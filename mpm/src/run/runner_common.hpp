@@ -220,7 +220,7 @@ void make_frame(const std::vector<S>& a, long n, const typename Model::Params& m
 // fp32 S = float, Model<float>. fp32 and mixed are compiled for scenes with boundary code (every
 // scene but free-fall tests has walls): 8 instantiations each instead of 16, per backend.
 // Ensembles (kMembers) are compiled for 2D scenes with boundary code: 4 per precision; a single
-// run of several materials also takes them in 2D, and in 3D 4 more in fp64.
+// run of several materials also takes them in 2D, and in 3D 4 more per precision.
 template <class S, class MS, bool kUnbounded, class F>
 auto dispatch_scalar(const SceneSetup& su, F& f) {
   using PT = PhaseTransitionModel<MS>;
@@ -238,14 +238,9 @@ auto dispatch_scalar(const SceneSetup& su, F& f) {
     if (su.members > 1 && (sc.dim != 2 || !su.has_boundary))
       throw SceneError("dimension", "ensembles are compiled for 2D scenes with a wall, a base or a gate");
     // A single run of several materials: with boundary code (a scene without walls has masks
-    // that hold no node, setup.cpp); 3D in fp64 only.
+    // that hold no node, setup.cpp), in 2D and 3D.
     if (sc.dim == 3) {
-      if constexpr (std::is_same_v<S, double>) {  // fp64
-        GF_MPM_CASE_M(3, true, true)
-      } else {
-        throw SceneError("solver.precision", std::string("\"") + precision_name(sc.precision) +
-                         "\" is not compiled for 3D scenes of several materials; use \"fp64\"");
-      }
+      GF_MPM_CASE_M(3, true, true)
     }
     GF_MPM_CASE_M(2, true, true)
   }

@@ -504,9 +504,6 @@ SceneSetup make_setup(const Scene& sc) {
   // boundary code: a scene of several materials without a wall, a base or a gate gets masks
   // that hold no node (and no contact table), which its update reads as no boundary.
   const bool masks = su.has_boundary || nmat > 1;
-  if (nmat > 1 && D == 3 && sc.precision != Precision::FP64)
-    fail("solver.precision", std::string("\"") + precision_name(sc.precision) +
-                                 "\" is not compiled for 3D scenes of several materials; use \"fp64\"");
   // Friction and lifting gates: their nodes are flagged (kContactNode) and a ContactTable
   // follows the stage's masks (boundary.hpp).
   const bool friction = std::any_of(sc.walls.begin(), sc.walls.end(), [](const Wall& w) { return w.mu.has_value(); }) ||

@@ -99,6 +99,21 @@ struct Obstacle {
   std::vector<double> moment_point;  // moments about it (default: the centroid)
 };
 
+// A 3D pier: the vertical cylinder of `radius` about (x, z) = center from y_min to y_max.
+inline Obstacle pier_obstacle(std::string name, std::string key, std::vector<double> center, double radius,
+                              double y_min, double y_max) {
+  Obstacle o;
+  o.shape = Obstacle::Shape::Cylinder;
+  o.name = std::move(name);
+  o.key = std::move(key);
+  o.kind = "cylinder";
+  o.center = std::move(center);
+  o.radius = radius;
+  o.y_min = y_min;
+  o.y_max = y_max;
+  return o;
+}
+
 struct Gate {
   std::vector<double> point, normal;
   bool normal_only = true;  // hold only the normal component (axis-aligned normals only)

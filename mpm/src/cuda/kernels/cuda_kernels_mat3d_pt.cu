@@ -2,5 +2,5 @@
 // model, both shapes (see cuda_runner_impl.cuh); built only with GRANFLOW_MPM_CUDA_3D.
 #include "cuda/cuda_runner_impl.cuh"
 
-GF_MPM_CUDA_INSTANTIATE_MATERIALS_3D(granflow::PhaseTransitionModel<double>, granflow::mpm::LinearShape)
-GF_MPM_CUDA_INSTANTIATE_MATERIALS_3D(granflow::PhaseTransitionModel<double>, granflow::mpm::QuadraticShape)
+GF_MPM_CUDA_INSTANTIATE_MATERIALS_3D(double, granflow::PhaseTransitionModel<double>, granflow::mpm::LinearShape)
+GF_MPM_CUDA_INSTANTIATE_MATERIALS_3D(double, granflow::PhaseTransitionModel<double>, granflow::mpm::QuadraticShape)
