@@ -177,7 +177,8 @@ std::string summary_csv(const mpm::EnsembleDesign& d, const mpm::Scene& sc, cons
   const char* f_unit = sc.dim == 2 ? "N/m" : "N";
   const char* i_unit = sc.dim == 2 ? "N s/m" : "N s";
   for (const std::string& o : obstacles)
-    os << ',' << csv_quote(o + " peak [" + f_unit + "]") << ',' << csv_quote(o + " impulse [" + i_unit + "]");
+    os << ',' << csv_quote(o + " peak [" + f_unit + "]") << ',' << csv_quote(o + " impulse [" + i_unit + "]") << ','
+       << csv_quote(o + " step peak [" + f_unit + "]");
   os << ",max_speed,steps,t_end,wall_s,message\n";
   for (size_t k = 0; k < s.members.size(); ++k) {
     const mpm::MemberSummary& m = s.members[k];
@@ -193,9 +194,9 @@ std::string summary_csv(const mpm::EnsembleDesign& d, const mpm::Scene& sc, cons
       for (const auto& x : m.forces)
         if (x.boundary == o) f = &x;
       if (f)
-        os << ',' << f->peak << ',' << f->impulse;
+        os << ',' << f->peak << ',' << f->impulse << ',' << f->step_peak;
       else
-        os << ",,";
+        os << ",,,";
     }
     os << ',' << m.max_speed << ',' << m.steps << ',' << m.t_end << ',' << m.wall_s << ',' << csv_quote(m.message)
        << '\n';

@@ -339,8 +339,9 @@ void run_mpm(const MpmOptions& o) {
   std::printf("final run-out: %.4f m\nfinal height: %.4f m\nmax speed: %.4g m/s\n", s.final.runout, s.final.height,
               s.final.max_speed);
   for (const mpm::ForcePeak& f : s.forces)
-    std::printf("force on %s: peak %.4g %s at t = %.4g s, impulse %.4g %s\n", f.boundary.c_str(), f.peak,
-                sc.dim == 2 ? "N/m" : "N", f.t_peak, f.impulse, sc.dim == 2 ? "N s/m" : "N s");
+    std::printf("force on %s: peak %.4g %s (mean over %g s) at t = %.4g s, impulse %.4g %s; largest single step %.4g %s\n",
+                f.boundary.c_str(), f.peak, sc.dim == 2 ? "N/m" : "N", sc.output.series_dt, f.t_peak, f.impulse,
+                sc.dim == 2 ? "N s/m" : "N s", f.step_peak, sc.dim == 2 ? "N/m" : "N");
   std::printf("output: %s (frames.pvd, runout.csv, tracked.csv, profile_final.csv%s%s%s)\n", out.c_str(),
               sc.dim == 3 && sc.terrain ? ", deposit.csv, maps/" : "",
               s.forces.empty() ? "" : (sc.obstacles.empty() ? ", obstacle_forces.csv" : ", obstacle_forces.csv, obstacles.vtu"),

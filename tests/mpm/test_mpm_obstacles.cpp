@@ -2,6 +2,7 @@
 // momentum balance on the CPU twin, small scenes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -369,8 +370,18 @@ TEST(MpmObstacles, EnsembleMembersReportTheForcesOfTheirSingleRuns) {
     for (size_t i = 0; i < a.size(); ++i) {
       EXPECT_EQ(a[i].boundary, b[i].boundary);
       EXPECT_EQ(a[i].peak, b[i].peak) << k << " " << a[i].boundary;
+      EXPECT_EQ(a[i].step_peak, b[i].step_peak) << k << " " << a[i].boundary;
       EXPECT_EQ(a[i].impulse, b[i].impulse) << k << " " << a[i].boundary;
     }
+    // the peak is the largest sample's mean force (impulse over time), at most the largest step's
+    double largest = 0;
+    for (const ForceRow& row : single[k].force_rows)
+      if (row.boundary == 0 && row.part < 0 && row.sums.time > 0)
+        largest = std::max(largest, std::hypot(row.sums.impulse[0], row.sums.impulse[1], row.sums.impulse[2]) /
+                                        row.sums.time);
+    EXPECT_NEAR(a[0].peak, largest, 1e-12 * largest);
+    EXPECT_GT(a[0].peak, 0.0);
+    EXPECT_LE(a[0].peak, a[0].step_peak * (1 + 1e-12));
   }
   EXPECT_NE(single[0].forces[0].impulse, single[1].forces[0].impulse);
 }

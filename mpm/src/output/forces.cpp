@@ -1,6 +1,7 @@
 // Boundary force rows, their CSVs and the obstacles' geometry (forces.hpp).
 #include <granflow/mpm/forces.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -188,14 +189,16 @@ std::vector<ForcePeak> ForceRecorder::peaks() const {
   if (!active_) return out;
   const size_t nb = su_->force_boundaries.size();
   std::vector<double> impulse(3 * nb, 0.0);
-  for (size_t b = 0; b < nb; ++b) out.push_back({su_->force_boundaries[b], 0.0, 0.0, 0.0});
+  for (size_t b = 0; b < nb; ++b) out.push_back({su_->force_boundaries[b], 0.0, 0.0, 0.0, 0.0});
   for (const ForceRow& r : st_.rows) {
     if (r.part >= 0) continue;
     ForcePeak& p = out[r.boundary];
-    if (r.sums.max_force > p.peak) {
-      p.peak = r.sums.max_force;
+    const double mean = r.sums.time > 0 ? norm3(r.sums.impulse) / r.sums.time : 0.0;
+    if (mean > p.peak) {
+      p.peak = mean;
       p.t_peak = r.t;
     }
+    p.step_peak = std::max(p.step_peak, r.sums.max_force);
     for (int d = 0; d < 3; ++d) impulse[3 * r.boundary + d] += r.sums.impulse[d];
   }
   for (size_t b = 0; b < nb; ++b) out[b].impulse = norm3(&impulse[3 * b]);

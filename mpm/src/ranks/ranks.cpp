@@ -65,7 +65,7 @@ std::string pack_members(const std::vector<MemberSummary>& ms) {
     p.pod<std::uint64_t>(m.forces.size());
     for (const ForcePeak& f : m.forces) {
       p.str(f.boundary);
-      for (double v : {f.peak, f.impulse, f.t_peak}) p.pod(v);
+      for (double v : {f.peak, f.impulse, f.t_peak, f.step_peak}) p.pod(v);
     }
   }
   return p.bytes();
@@ -94,6 +94,7 @@ std::vector<MemberSummary> unpack_members(const std::string& bytes) {
       f.peak = u.pod<double>();
       f.impulse = u.pod<double>();
       f.t_peak = u.pod<double>();
+      f.step_peak = u.pod<double>();
     }
   }
   if (!u.done()) throw std::runtime_error("ranks: a message from another rank has trailing bytes");

@@ -27,10 +27,14 @@ struct ForcesState {
 
 // Per boundary over a run: the largest single-step force and the total impulse (ensemble
 // summaries, design studies).
+// peak: the largest mean force over one output.series_dt sample (what a load cell with that
+// response reads); step_peak: the largest force of a single step, which spikes when a point
+// crosses a cell (10-50 times the peak on the load-cell flume: docs/mpm_results.md).
 struct ForcePeak {
   std::string boundary;
   double peak = 0, impulse = 0;  // N (2D: N/m), N s (2D: N s/m; the magnitude of the summed dp)
   double t_peak = 0;             // end of the sample interval that held the peak
+  double step_peak = 0;          // N (2D: N/m)
 };
 
 class ForceRecorder {
