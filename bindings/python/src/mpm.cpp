@@ -107,6 +107,48 @@ py::dict mpm_run(py::handle scene, py::handle params, py::handle overrides, cons
     if (i == 1) tracked["name"] = py::module_::import("numpy").attr("array")(names, py::arg("dtype") = "U");
   }
 
+  // gauges.csv (scenes with [[gauge]]) and materials.csv (several materials), column by column
+  py::dict gauges;
+  if (!scn.gauges.empty()) {
+    std::vector<std::vector<double>> g(8);
+    py::list gnames;
+    for (const auto& r : s.gauges) {
+      const double row[] = {r.t, r.t_flow, r.depth, r.u, r.u_along, r.density, r.mass_flux, double(r.points)};
+      for (int i = 0; i < 8; ++i) g[i].push_back(row[i]);
+      gnames.append(scn.gauges[r.gauge].name);
+    }
+    const char* gcols[] = {"t [s]", "t_flow [s]", "depth [m]", "u [m/s]", "u_along [m/s]", "density [kg/m^3]",
+                           "mass_flux [kg/(m s)]", "points"};
+    for (int i = 0; i < 8; ++i) {
+      gauges[py::str(gcols[i])] = to_array(g[i]);
+      if (i == 1) gauges["gauge"] = py::module_::import("numpy").attr("array")(gnames, py::arg("dtype") = "U");
+    }
+  }
+  py::dict materials;
+  const int nmat = scn.material_count();
+  if (nmat > 1 && s.material_series.size() == static_cast<size_t>(nmat) * s.series.size()) {
+    std::vector<std::vector<double>> c(9);
+    py::list mnames;
+    for (size_t i = 0; i < s.series.size(); ++i)
+      for (int k = 0; k < nmat; ++k) {
+        const auto& r = s.series[i];
+        const mpm::Measures& m = s.material_series[i * nmat + k];
+        const double row[] = {r.t, r.t_flow, double(r.stage), m.runout, m.height, m.max_speed, m.kinetic_energy,
+                              m.mean_T, m.max_T};
+        for (int j = 0; j < 9; ++j) c[j].push_back(row[j]);
+        mnames.append(scn.material_at(k).label);
+      }
+    const char* mcols[] = {"t", "t_flow", "stage", "runout", "height", "max_speed", "kinetic_energy", "mean_T", "max_T"};
+    for (int j = 0; j < 9; ++j) {
+      materials[py::str(mcols[j])] = to_array(c[j]);
+      if (j == 2) materials["material"] = py::module_::import("numpy").attr("array")(mnames, py::arg("dtype") = "U");
+    }
+  }
+  py::dict forces;  // per boundary with force probes: what granflow mpm prints
+  for (const mpm::ForcePeak& f : s.forces)
+    forces[py::str(f.boundary)] = py::dict(py::arg("peak") = f.peak, py::arg("t_peak") = f.t_peak,
+                                           py::arg("impulse") = f.impulse, py::arg("step_peak") = f.step_peak);
+
   py::dict particles;
   particles["x"] = points(fr.x, fr.n, fr.dim);
   particles["v"] = points(fr.v, fr.n, fr.dim);
@@ -133,6 +175,9 @@ py::dict mpm_run(py::handle scene, py::handle params, py::handle overrides, cons
                           py::arg("mean_T") = s.final.mean_T, py::arg("max_T") = s.final.max_T);
   out["series"] = series;
   out["tracked"] = tracked;
+  out["gauges"] = gauges;
+  out["materials"] = materials;
+  out["forces"] = forces;
   out["particles"] = particles;
   out["surface"] = columns_dict({"x", "surface_y"}, prof);
   return out;
@@ -153,6 +198,8 @@ precision   "fp64", "mixed" or "fp32" instead of solver.precision
 stop_after  > 0: stop at this simulated time [s]; <= 0: the whole scene
 
 Returns a dict: series (runout.csv's columns), tracked (tracked.csv's, name as strings),
+gauges (gauges.csv's, gauge as strings; empty without [[gauge]]), materials (materials.csv's;
+empty with one material), forces (per boundary measured: peak, t_peak, impulse, step_peak),
 particles (final state: x and v (n, dim), p, q, eps_pd, T, eta_c, K_col, e, sxx, syy, sxy, m),
 surface (profile_final.csv's x, surface_y), final (run-out, height, ...), steps, t_end,
 wall_s, device. A failed run raises RuntimeError("run stopped: ...") as the CLI does; Ctrl-C

@@ -42,6 +42,37 @@ def test_series_and_tracks_match_the_cli_csvs(cli_run, run):
     assert run["t_end"] == pytest.approx(STOP) and run["steps"] == 1200
 
 
+def test_gauges_materials_and_forces_match_the_cli(cli, tmp_path):
+    # the CI column into a low wall (forces) with a gauge before it, as two layers of materials
+    text = open("mpm/scenes/column_obstacle_ci.toml").read()
+    assert text.count("[[body]]") == 1 and "max = [0.20, 0.10]" in text
+    text = text.replace("[material]", '[[material]]\nname = "a"', 1)
+    text = text.replace("[[body]]", '[[body]]\nmaterial = "a"').replace("max = [0.20, 0.10]", "max = [0.20, 0.05]")
+    text += ('\n[[material]]\nname = "b"\nparameters = "column_collapse"\nmodel = "phase_transition"\ne0 = 0.9\n'
+             '\n[[body]]\nmaterial = "b"\nmin = [0.0, 0.05]\nmax = [0.20, 0.10]\n'
+             '\n[[gauge]]\nname = "g"\nfrom = [0.22, 0.0]\nto = [0.22, 0.12]\n')
+    scene = tmp_path / "scene.toml"
+    scene.write_text(text)
+    sets = ["stage[1].duration=0.3", "output.times=[0.3]"]
+    out = tmp_path / "o"
+    proc = cli("mpm", scene, "--out", out, "--no-png", "--quiet", *[w for s in sets for w in ("--set", s)])
+    assert proc.returncode == 0, proc.stderr
+    got = granflow.mpm(str(scene), overrides=sets)
+    for name, key in (("gauges.csv", "gauges"), ("materials.csv", "materials")):
+        ref = read_csv(out / name)
+        assert list(got[key]) == list(ref), name
+        for col, values in ref.items():
+            if values.dtype.kind == "U":
+                assert got[key][col].tolist() == values.tolist(), (name, col)
+            else:
+                np.testing.assert_allclose(got[key][col], values, rtol=1e-7, atol=1e-20, err_msg=f"{name}:{col}")
+    assert set(got["materials"]["material"]) == {"a", "b"}
+    assert got["gauges"]["points"].max() > 0  # the flow reaches the gauge
+    wall = got["forces"]["low wall"]
+    assert 0 < wall["peak"] <= wall["step_peak"] and wall["impulse"] > 0
+    assert "force on low wall: peak" in proc.stdout
+
+
 def test_final_particles(run):
     p = run["particles"]
     n = run["particles_count"]
