@@ -338,6 +338,13 @@ void run_mpm(const MpmOptions& o) {
   }
   std::printf("final run-out: %.4f m\nfinal height: %.4f m\nmax speed: %.4g m/s\n", s.final.runout, s.final.height,
               s.final.max_speed);
+  const int nmat = sc.material_count();  // the last sample's measures per material (materials.csv)
+  if (nmat > 1 && !s.series.empty() && s.material_series.size() == static_cast<size_t>(nmat) * s.series.size())
+    for (int k = 0; k < nmat; ++k) {
+      const mpm::Measures& m = s.material_series[(s.series.size() - 1) * nmat + k];
+      std::printf("material %s: final run-out %.4f m, final height %.4f m, max speed %.4g m/s\n",
+                  sc.material_at(k).label.c_str(), m.runout, m.height, m.max_speed);
+    }
   for (const mpm::ForcePeak& f : s.forces)
     std::printf("force on %s: peak %.4g %s (mean over %g s) at t = %.4g s, impulse %.4g %s; largest single step %.4g %s\n",
                 f.boundary.c_str(), f.peak, sc.dim == 2 ? "N/m" : "N", sc.output.series_dt, f.t_peak, f.impulse,

@@ -71,6 +71,9 @@ def test_gauges_materials_and_forces_match_the_cli(cli, tmp_path):
     wall = got["forces"]["low wall"]
     assert 0 < wall["peak"] <= wall["step_peak"] and wall["impulse"] > 0
     assert "force on low wall: peak" in proc.stdout
+    last = {m: got["materials"]["runout"][got["materials"]["material"] == m][-1] for m in ("a", "b")}
+    for m, runout in last.items():  # the CLI's closing lines per material
+        assert f"material {m}: final run-out {runout:.4f} m" in proc.stdout
 
 
 def test_final_particles(run):
