@@ -115,10 +115,39 @@ void add_override_options(CLI::App* cmd, mpm::SceneOverrides& ov) {
       ->allow_extra_args(false);  // one value per --set: the scene argument is never taken as one
 }
 
+// devices > 1: the scene split into slabs along x (docs/mpm_slabs.md).
 std::unique_ptr<mpm::Runner> make_runner(const mpm::SceneSetup& su, const std::string& backend,
-                                         const CudaFlags& flags) {
+                                         const CudaFlags& flags, int devices) {
   const mpm::CudaOptions co = flags.options();  // checked for either backend
+  if (devices > 1) {
+    if (backend == "cuda")
+      throw io::InputError("--devices " + std::to_string(devices) +
+                           " with --backend cuda: one scene over several GPUs is not built for CUDA yet; the CPU "
+                           "twin runs the split (--backend cpu --devices N), and granflow ensemble --devices N "
+                           "spreads an ensemble's members over GPUs");
+    if (su.members > 1) throw io::InputError("--devices: an ensemble is not split into slabs");
+    mpm::SlabOptions so;
+    so.slabs = devices;
+    try {
+      return mpm::make_cpu_runner(su, so);
+    } catch (const std::invalid_argument& e) {
+      throw io::InputError("--devices " + std::to_string(devices) + ": " + e.what());
+    }
+  }
   return backend == "cuda" ? mpm::make_cuda_runner(su, co) : mpm::make_cpu_runner(su);
+}
+
+// What a run split into slabs did (nothing for one slab).
+void print_slab_report(const mpm::Runner& r, const mpm::RunSummary& s) {
+  const mpm::SlabReport rep = r.slab_report();
+  if (rep.slabs < 2) return;
+  std::string borders;
+  for (size_t i = 1; i + 1 < rep.borders.size(); ++i) borders += (i > 1 ? ", " : "") + std::to_string(rep.borders[i]);
+  std::printf("slabs: %d along x, borders at node columns %s at the end; %ld re-partitions moved them (%ld asked "
+              "for); %ld points migrated; largest imbalance %.3f; %ld halo nodes exchanged per step; exchange, "
+              "migration and re-partitioning %.1f %% of the wall\n",
+              rep.slabs, borders.c_str(), rep.repartitions, rep.checks, rep.migrated, rep.max_imbalance,
+              rep.halo_nodes, s.wall_s > 0 ? 100.0 * s.times.exchange / s.wall_s : 0.0);
 }
 
 void require_backend(const std::string& backend) {
@@ -193,6 +222,7 @@ struct MpmOptions {
   double stop_after = -1;
   double checkpoint_every = -1;  // > 0 overrides output.checkpoint_dt
   long span = 10000;
+  int devices = 1;
   CudaFlags cuda;
   mpm::SceneOverrides overrides;
 };
@@ -219,6 +249,7 @@ mpm::Checkpoint load_restart(const std::string& out, const mpm::SceneSetup& su, 
 std::string restart_command(const MpmOptions& o, const std::string& out) {
   std::string again = "granflow mpm " + o.scene + " --out " + out + " --restart" + override_args(o.overrides);
   if (o.backend != "cpu") again += " --backend " + o.backend;
+  if (o.devices > 1) again += " --devices " + std::to_string(o.devices);
   if (!o.precision.empty()) again += " --precision " + o.precision;
   if (o.checkpoint_every > 0) {
     std::ostringstream os;
@@ -249,7 +280,7 @@ void run_mpm(const MpmOptions& o) {
     resume = load_restart(out, su, hash);
     folder.keep_only(mpm::checkpoint_outputs(*resume));
   }
-  auto runner = make_runner(su, o.backend, o.cuda);
+  auto runner = make_runner(su, o.backend, o.cuda, o.devices);
   const mpm::Scene& sc = su.scene;
   std::fprintf(stderr, "granflow mpm: %s\n  %ld particles, %ld grid nodes, %s, %s, %s shape functions, %s\n",
                sc.name.c_str(), runner->particles(), runner->nodes(),
@@ -321,6 +352,7 @@ void run_mpm(const MpmOptions& o) {
   std::printf("precision: %s\n", mpm::precision_name(sc.precision));
   std::printf("particle-updates/s: %.4g\n", s.wall_s > 0 ? runner->particles() * double(s.steps) / s.wall_s : 0.0);
   print_step_times(s, runner->particles(), o.backend == "cuda" ? mpm::describe(o.cuda.options()) : "CPU twin");
+  print_slab_report(*runner, s);
   if (s.consolidation.done)
     std::printf("after stage 1: base sigma_v %.1f Pa vs rho g h %.1f Pa; max |sigma_v/(rho g z) - 1| = %.3f "
                 "(middle half of the body, below the top cell)\n",
@@ -401,6 +433,7 @@ void run_mpm(const MpmOptions& o) {
 struct BenchOptions {
   std::string scene, backend = "cpu", loop = "span", precision;
   long steps = 200, warmup = 20, split = 100;
+  int devices = 1;
   CudaFlags cuda;
   mpm::SceneOverrides overrides;
 };
@@ -412,7 +445,7 @@ void bench_mpm(const BenchOptions& o) {
   const mpm::SceneSetup su = setup_from_file(o.scene, o.overrides, o.precision);
   const double setup_s = std::chrono::duration<double>(Clock::now() - t_setup).count();
   const auto t_runner = Clock::now();
-  auto r = make_runner(su, o.backend, o.cuda);
+  auto r = make_runner(su, o.backend, o.cuda, o.devices);
   const double runner_s = std::chrono::duration<double>(Clock::now() - t_runner).count();
   mpm::BenchOptions bo;
   bo.steps = o.steps;
@@ -455,6 +488,10 @@ void register_mpm(CLI::App& app) {
   cmd->add_flag("--quiet", o->quiet, "no progress line");
   cmd->add_option("--span", o->span, "most steps queued without a host round-trip (1: one per step)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--devices", o->devices,
+                  "split the scene into N slabs along x, one per device (docs/mpm_slabs.md); the CPU twin runs "
+                  "them in this process")
+      ->check(CLI::PositiveNumber);
   o->cuda.add(cmd);
   cmd->callback([o] { run_mpm(*o); });
 }
@@ -473,6 +510,8 @@ void register_bench_mpm(CLI::App& bench) {
   cmd->add_option("--precision", o->precision, "fp64, mixed or fp32: overrides the scene's solver.precision")
       ->check(CLI::IsMember({"fp64", "mixed", "fp32"}));
   add_override_options(cmd, o->overrides);
+  cmd->add_option("--devices", o->devices, "split the scene into N slabs along x (docs/mpm_slabs.md)")
+      ->check(CLI::PositiveNumber);
   o->cuda.add(cmd);
   cmd->callback([o] { bench_mpm(*o); });
 }

@@ -54,7 +54,7 @@ struct CudaFlags {
 };
 
 std::unique_ptr<mpm::Runner> make_runner(const mpm::SceneSetup& su, const std::string& backend,
-                                         const CudaFlags& flags);
+                                         const CudaFlags& flags, int devices = 1);
 // --backend cuda where it cannot run: an InputError, the same for every MPM command, before
 // anything is set up or written.
 void require_backend(const std::string& backend);

@@ -231,7 +231,8 @@ TEST(MpmBoundary, FrictionalBasePolylineSlidesAtTheCoulombRate) {
 // motion is normal), one moving away or along the segment keeps its velocity.
 TEST(MpmBoundary, BaseSegmentNormalPointsIntoTheBase) {
   using G = GridLayout<2>;
-  const int nodes[2] = {3, 3};
+  GridDesc<2, double> grid{{0.0, 0.0}, 0.1, 10.0, {3, 3}, 9};
+  grid.nx = 3;
   const long n = 9;
   const long off = contact_table_offset(n);
   std::vector<std::uint64_t> buf((off + sizeof(ContactTable) + sizeof(BaseSegment)) / 8 + 1);  // 8-byte aligned
@@ -248,7 +249,7 @@ TEST(MpmBoundary, BaseSegmentNormalPointsIntoTheBase) {
   auto after = [&](double vx, double vy) {
     gv.f(G::VNEW, I) = vx;
     gv.f(G::VNEW + 1, I) = vy;
-    contact_node<2, double>(gv, I, nodes, 0.0);
+    contact_node<2, double>(gv, I, grid, 0.0);
     return std::pair<double, double>{gv.f(G::VNEW, I), gv.f(G::VNEW + 1, I)};
   };
   // falling to the right: into the base is down and to the left

@@ -20,6 +20,7 @@ inline GridDesc<2, double> grid_of(const SceneSetup& su) {
   g.h = su.scene.h;
   g.inv_h = 1.0 / su.scene.h;
   g.n_nodes = su.n_nodes;
+  g.nx = su.nodes[0];
   return g;
 }
 

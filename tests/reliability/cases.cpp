@@ -443,6 +443,7 @@ std::vector<Case> all_cases() {
       {"calib_scene_front_past_end", {{"job.toml", kSceneJob}, {"front.csv", "t,x\n0,0.1\n0.001,0.1\n0.003,0.1\n"}}, kCal, kInput, {"front.csv:4", "t = 0.003 s", "past the end of the run", "0.002 s after the release"}},
       {"ens_backend_cuda_unavailable", {{"d.toml", design("frictional.phi_c_deg", "range = [18.0, 22.0]")}}, ens_with({"--backend", "cuda"}), kInput, {"--backend cuda: ", "; use --backend cpu"}},
       {"mpm_backend_cuda_unavailable", {}, mpm_with({"--backend", "cuda"}), kInput, {"--backend cuda: ", "; use --backend cpu"}},
+      {"mpm_devices_more_slabs_than_columns", {}, mpm_with({"--devices", "40"}), kInput, {"--devices 40: slabs: 40 slabs of at least", "node columns each (one stencil) do not fit the grid's", "columns along x"}},
       // ---- the shipped data folder (GRANFLOW_DATA_DIR) ---------------------------------------
       {"data_dir_wrong", {}, {"element", "t.toml", "--params", "element_test", "--out", "out.csv"}, kInput, {"element_test: no such file", "GRANFLOW_DATA_DIR = '/nonexistent/data'", "/nonexistent/data/params"}, {{"GRANFLOW_DATA_DIR", "/nonexistent/data"}}},
       {"data_dir_relative", {}, {"element", "t.toml", "--params", "element_test", "--out", "out.csv"}, kInput, {"element_test: no such file", "GRANFLOW_DATA_DIR = 'data'", "relative"}, {{"GRANFLOW_DATA_DIR", "data"}}},

@@ -198,20 +198,6 @@ void write_text(const std::string& path, const std::string& text) {
 
 namespace {
 
-UpdateStats operator+(UpdateStats a, const UpdateStats& b) {
-  a.updates += b.updates;
-  a.substeps += b.substeps;
-  a.substep_limit += b.substep_limit;
-  a.tension_cutoff += b.tension_cutoff;
-  a.vs_clamped += b.vs_clamped;
-  a.separated += b.separated;
-  a.max_substeps = std::max(a.max_substeps, b.max_substeps);
-  a.warp_max_substeps += b.warp_max_substeps;
-  a.warps += b.warps;
-  a.step_max_substeps += b.step_max_substeps;
-  a.steps += b.steps;
-  return a;
-}
 
 }  // namespace
 

@@ -35,6 +35,8 @@ GridDesc<D, S> grid_desc(const SceneSetup& su) {
   g.h = S(su.scene.h);
   g.inv_h = S(1) / g.h;
   g.n_nodes = su.n_nodes;
+  g.x0 = 0;
+  g.nx = su.nodes[0];
   return g;
 }
 

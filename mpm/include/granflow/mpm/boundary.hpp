@@ -119,15 +119,13 @@ GF_HDI void coulomb_contact(S* v, const double* n, double mu) {
 // node lies on or beyond (in scene order), then of the base, then the lifting gate's hold
 // (t: time at the start of the step).
 template <int D, class S>
-GF_HDI void contact_node(const GridView<S>& gv, long I, const int* nodes, double t) {
+GF_HDI void contact_node(const GridView<S>& gv, long I, const GridDesc<D, S>& g, double t) {
   using G = GridLayout<D>;
   const ContactTable& c = contact_table(gv);
   double x[3] = {0, 0, 0};
-  long k = I;
-  for (int d = 0; d < D; ++d) {
-    x[d] = c.origin[d] + static_cast<double>(k % nodes[d]) * c.h;
-    k /= nodes[d];
-  }
+  int Im[D];
+  g.multi(I, Im);
+  for (int d = 0; d < D; ++d) x[d] = c.origin[d] + static_cast<double>(Im[d]) * c.h;
   S v[D];
   for (int d = 0; d < D; ++d) v[d] = gv.f(G::VNEW + d, I);
   for (int w = 0; w < c.n_walls; ++w) {

@@ -243,7 +243,7 @@ GF_HDI void grid_update_node(const GridView<S>& gv, long I, const StepParams<D, 
     gv.f(G::VNEW + d, I) = vn;
   }
   if constexpr (kBoundary && kContacts) {
-    if (mask & kContactNode) contact_node<D, S>(gv, I, sp.grid.nodes, sp.t);
+    if (mask & kContactNode) contact_node<D, S>(gv, I, sp.grid, sp.t);
   }
 }
 

@@ -58,6 +58,10 @@ struct GridView {
 
 // Background grid: nodes at origin + I h, I in [0, cells] per axis. `walls` (default none)
 // selects the boundary-modified quadratic B-splines at axis-aligned walls (shape.hpp).
+// Storage may hold a window of node columns along x, [x0, x0 + nx) (a slab of a decomposed
+// scene, docs/mpm_slabs.md): indices I stay global (positions, shapes and the on-grid test are
+// those of the whole grid), linear() and multi() map them to and from the window's storage.
+// The whole grid: x0 = 0, nx = nodes[0]; n_nodes counts the stored nodes.
 template <int D, class S>
 struct GridDesc {
   S origin[D];
@@ -66,13 +70,16 @@ struct GridDesc {
   int nodes[D];
   long n_nodes;
   AxisWalls walls[D] = {};
+  int x0 = 0, nx = 0;
   GF_HDI long linear(const int* I) const {
-    long k = I[D - 1];
-    for (int d = D - 2; d >= 0; --d) k = k * nodes[d] + I[d];
-    return k;
+    long k = 0;
+    for (int d = D - 1; d >= 1; --d) k = k * nodes[d] + I[d];
+    return k * nx + (I[0] - x0);
   }
   GF_HDI void multi(long k, int* I) const {
-    for (int d = 0; d < D; ++d) {
+    I[0] = static_cast<int>(k % nx) + x0;
+    k /= nx;
+    for (int d = 1; d < D; ++d) {
       I[d] = static_cast<int>(k % nodes[d]);
       k /= nodes[d];
     }

@@ -3,6 +3,7 @@
 // one compiled combination (dimension, scalar, model, shape, boundary code on/off).
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -134,6 +135,7 @@ struct SpanResult {
 struct PhaseTimes {
   double p2g = 0, grid = 0, g2p = 0;  // seconds, accumulated (CUDA: only in timed spans)
   double sort = 0;                    // CUDA: reordering particles by cell (timed spans)
+  double exchange = 0;                // slabs: halo copies, migration, re-partitioning
   double device = 0;                  // CUDA: device time of all spans (start to end event)
   long steps = 0;                     // steps in the phase times
   long span_steps = 0;                // steps in `device`
@@ -161,6 +163,21 @@ struct UpdateStats {
   double mean_step_max() const { return steps > 0 ? double(step_max_substeps) / double(steps) : 0.0; }
 };
 
+inline UpdateStats operator+(UpdateStats a, const UpdateStats& b) {
+  a.updates += b.updates;
+  a.substeps += b.substeps;
+  a.substep_limit += b.substep_limit;
+  a.tension_cutoff += b.tension_cutoff;
+  a.vs_clamped += b.vs_clamped;
+  a.separated += b.separated;
+  a.max_substeps = std::max(a.max_substeps, b.max_substeps);
+  a.warp_max_substeps += b.warp_max_substeps;
+  a.warps += b.warps;
+  a.step_max_substeps += b.step_max_substeps;
+  a.steps += b.steps;
+  return a;
+}
+
 // Diagnostics of one particle.
 struct PointDiagnostics {
   double p = 0, q = 0, eps_pd = 0, T = 0, eta_c = 0, K_col = 0;
@@ -184,6 +201,27 @@ struct MemberFailure {
   int member = 0;
   long particle = -1;
   std::uint32_t status = 0;
+};
+
+// One scene split into slabs along x, one per GPU (docs/mpm_slabs.md); the CPU twin runs the
+// slabs one after another in one process. Re-partitioning moves the borders so that each slab
+// holds about the same number of points.
+struct SlabOptions {
+  int slabs = 1;
+  double imbalance = 1.2;  // re-partition when the fullest slab holds this many times the mean
+  long min_steps = 100;    // steps at least between two re-partitions for imbalance
+  long every = 0;          // > 0: re-partition every this many steps as well (tests)
+};
+
+// How a decomposed run went (SlabRunner; slabs = 1: not decomposed).
+struct SlabReport {
+  int slabs = 1;
+  std::vector<int> borders;      // node columns: slab s owns [borders[s], borders[s + 1])
+  long repartitions = 0;         // re-partitions that moved a border
+  long checks = 0;               // re-partitions asked for (imbalance or every)
+  long migrated = 0;             // points that moved to another slab, summed over steps
+  double max_imbalance = 1;      // largest (fullest slab / mean) seen after a step
+  long halo_nodes = 0;           // nodes exchanged per step (both directions)
 };
 
 class Runner {
@@ -226,6 +264,7 @@ class Runner {
   // with its first bad particle. They are retired: skipped by every later step, their state
   // left as the failed step made it. The other members' last step is complete.
   virtual std::vector<MemberFailure> retire_failed_members() { return {}; }
+  virtual SlabReport slab_report() const { return {}; }
 
  private:
   Frame snapshot_;  // the default snapshot()
@@ -307,6 +346,9 @@ inline std::string describe(const CudaOptions& o) {
 }
 
 std::unique_ptr<Runner> make_cpu_runner(const SceneSetup& setup);
+// slabs.slabs > 1: the scene split into slabs along x (single runs only; throws
+// std::invalid_argument for an ensemble or a grid narrower than one stencil per slab).
+std::unique_ptr<Runner> make_cpu_runner(const SceneSetup& setup, const SlabOptions& slabs);
 // Defined by the CUDA backend library; throws when CUDA was not built or no device exists.
 std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& setup, const CudaOptions& options = {});
 bool cuda_backend_available();

@@ -1,0 +1,205 @@
+// One scene split into slabs along x (docs/mpm_slabs.md) on the CPU twin: 2 and 3 slabs equal
+// the one-slab run bit for bit (the CI column in both shapes, the 3D CI slab, the CI flume's
+// frictional base, the forces on an obstacle), with points crossing the borders; re-partitioning
+// every few steps and restarting on another slab count change nothing; too many slabs for the
+// grid is refused.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include <granflow/mpm/driver.hpp>
+#include <granflow/mpm/runner.hpp>
+#include <granflow/mpm/scene_file.hpp>
+
+#include "one_thread.hpp"
+#include "test_constants.hpp"
+#include "tiny_column.hpp"
+
+namespace granflow::mpm {
+namespace {
+
+struct Outcome {
+  RunSummary s;
+  Frame last;
+  SlabReport report;
+};
+
+Outcome run_slabs(const Scene& sc, int slabs, long every = 0) {
+  const SceneSetup su = make_setup(sc);
+  SlabOptions o;
+  o.slabs = slabs;
+  o.every = every;
+  auto r = make_cpu_runner(su, o);
+  RunOptions opt;
+  opt.progress = false;
+  Outcome out;
+  out.s = run(su, *r, opt);
+  r->frame(out.last, true);
+  out.report = r->slab_report();
+  return out;
+}
+
+bool same_sums(const ForceSums& a, const ForceSums& b) {
+  for (int d = 0; d < 3; ++d)
+    if (a.impulse[d] != b.impulse[d] || a.moment[d] != b.moment[d]) return false;
+  return a.normal == b.normal && a.tangential == b.tangential && a.max_force == b.max_force && a.steps == b.steps;
+}
+
+// Every particle field of the last frame, the run-out series and the force rows, bit for bit.
+void expect_same(const Outcome& one, const Outcome& split, const std::string& what) {
+  ASSERT_TRUE(one.s.ok) << what << ": " << one.s.message;
+  ASSERT_TRUE(split.s.ok) << what << ": " << split.s.message;
+  EXPECT_EQ(one.s.steps, split.s.steps) << what;
+  EXPECT_EQ(one.last.x, split.last.x) << what;
+  EXPECT_EQ(one.last.v, split.last.v) << what;
+  EXPECT_EQ(one.last.p, split.last.p) << what;
+  EXPECT_EQ(one.last.q, split.last.q) << what;
+  EXPECT_EQ(one.last.e, split.last.e) << what;
+  EXPECT_EQ(one.last.T, split.last.T) << what;
+  EXPECT_EQ(one.last.eps_pd, split.last.eps_pd) << what;
+  ASSERT_EQ(one.s.series.size(), split.s.series.size()) << what;
+  for (size_t i = 0; i < one.s.series.size(); ++i) {
+    EXPECT_EQ(one.s.series[i].m.runout, split.s.series[i].m.runout) << what << ", row " << i;
+    EXPECT_EQ(one.s.series[i].m.height, split.s.series[i].m.height) << what << ", row " << i;
+    EXPECT_EQ(one.s.series[i].m.kinetic_energy, split.s.series[i].m.kinetic_energy) << what << ", row " << i;
+  }
+  ASSERT_EQ(one.s.force_rows.size(), split.s.force_rows.size()) << what;
+  for (size_t i = 0; i < one.s.force_rows.size(); ++i)
+    EXPECT_TRUE(same_sums(one.s.force_rows[i].sums, split.s.force_rows[i].sums)) << what << ", force row " << i;
+}
+
+// The slabs' borders hold points on both sides at the end, and points crossed them.
+void expect_split_used(const Outcome& split, int slabs, const std::string& what) {
+  EXPECT_EQ(split.report.slabs, slabs) << what;
+  ASSERT_EQ(split.report.borders.size(), static_cast<size_t>(slabs + 1)) << what;
+  EXPECT_GT(split.report.migrated, 0) << what << ": no point crossed a border";
+  EXPECT_GT(split.report.halo_nodes, 0) << what;
+}
+
+// A column `width` wide and `height` high behind the gate: a tall one collapses whole, so that
+// the mass moves through every slab (Bui's 2:1 wide column keeps a static wedge at the back,
+// where a border at its middle sees no point cross).
+void make_tall(Scene& sc, double width, double height) {
+  sc.size[1] = std::max(sc.size[1], height + 0.04);
+  sc.bodies[0].box_max[0] = width;
+  sc.bodies[0].box_max[1] = height;
+  for (Stage& st : sc.stages)
+    if (st.gate) st.gate->point[0] = width;
+  sc.tracks.clear();
+}
+
+Scene tiny(ShapeKind shape, ModelKind model = ModelKind::PhaseTransition) {
+  Scene sc = test::tiny_column(model, shape);
+  make_tall(sc, 0.08, 0.20);
+  sc.stages[1].duration = 0.15;
+  return sc;
+}
+
+}  // namespace
+
+TEST(MpmSlabs, CiColumnInTwoAndThreeSlabsEqualsOneBitwise) {
+  for (ShapeKind shape : {ShapeKind::Linear, ShapeKind::QuadraticBSpline}) {
+    const Scene sc = tiny(shape);
+    const Outcome one = run_slabs(sc, 1);
+    EXPECT_TRUE(one.report.borders.empty());  // not decomposed
+    for (int n : {2, 3}) {
+      const std::string what = std::string(shape == ShapeKind::Linear ? "linear" : "quadratic") + ", " +
+                               std::to_string(n) + " slabs";
+      const Outcome split = run_slabs(sc, n);
+      expect_same(one, split, what);
+      expect_split_used(split, n, what);
+    }
+  }
+}
+
+// Frictional-only model, the CI flume: a frictional base polyline (contact tables sliced per slab).
+TEST(MpmSlabs, CiFlumeWithFrictionalBaseEqualsOneBitwise) {
+  Scene sc = load_scene(kScenes + "flume_ci_frictional.toml");
+  const Outcome one = run_slabs(sc, 1);
+  const Outcome split = run_slabs(sc, 3);
+  expect_same(one, split, "flume, 3 slabs");
+  expect_split_used(split, 3, "flume, 3 slabs");
+}
+
+TEST(MpmSlabs, ThreeDCiSlabInTwoAndThreeSlabsEqualsOneBitwise) {
+  Scene sc = load_scene(kScenes + "column_collapse_3d_ci.toml");
+  make_tall(sc, 0.08, 0.20);
+  sc.stages[1].duration = 0.1;
+  const Outcome one = run_slabs(sc, 1);
+  for (int n : {2, 3}) {
+    const Outcome split = run_slabs(sc, n);
+    expect_same(one, split, "3D, " + std::to_string(n) + " slabs");
+    expect_split_used(split, n, "3D, " + std::to_string(n) + " slabs");
+  }
+}
+
+// The forces on an obstacle and on the walls and base: each slab measures the probes of its
+// columns, the sums run in the set-up's probe order.
+TEST(MpmSlabs, ForcesOnAnObstacleEqualOneSlabBitwise) {
+  Scene sc = load_scene(kScenes + "column_obstacle_ci.toml");
+  make_tall(sc, 0.12, 0.13);
+  sc.stages[0].duration = 0.02;
+  sc.stages[1].duration = 0.12;
+  const Outcome one = run_slabs(sc, 1);
+  ASSERT_FALSE(one.s.force_rows.empty());
+  const Outcome split = run_slabs(sc, 2);
+  expect_same(one, split, "obstacle, 2 slabs");
+  expect_split_used(split, 2, "obstacle, 2 slabs");
+  double impulse = 0;
+  for (const ForceRow& row : one.s.force_rows) impulse += std::fabs(row.sums.impulse[0]);
+  EXPECT_GT(impulse, 0);  // the forces compared are not all zero
+}
+
+// A re-partition every 7 steps moves the borders with the collapsing column and changes nothing.
+TEST(MpmSlabs, ForcedRepartitioningEveryFewStepsChangesNothing) {
+  const Scene sc = tiny(ShapeKind::QuadraticBSpline);
+  const Outcome one = run_slabs(sc, 1);
+  const Outcome split = run_slabs(sc, 3, 7);
+  expect_same(one, split, "3 slabs, re-partitioned every 7 steps");
+  EXPECT_GT(split.report.checks, 100);
+  EXPECT_GT(split.report.repartitions, 0) << "the borders never moved";
+}
+
+// A state taken from one slab continues on three (a checkpoint restarted on another GPU count).
+TEST(MpmSlabs, StateMovesBetweenSlabCounts) {
+  const Scene sc = tiny(ShapeKind::Linear);
+  const SceneSetup su = make_setup(sc);
+  auto one = make_cpu_runner(su);
+  SlabOptions o;
+  o.slabs = 3;
+  auto three = make_cpu_runner(su, o);
+  for (Runner* r : {one.get(), three.get()}) r->set_stage(1, 0.0, sc.flip);
+  ASSERT_TRUE(one->advance(150, sc.dt).ok);
+  HostParticles mid;
+  one->download(mid);
+  three->upload(mid);
+  ASSERT_TRUE(one->advance(150, sc.dt).ok);
+  ASSERT_TRUE(three->advance(150, sc.dt).ok);
+  HostParticles a, b;
+  one->download(a);
+  three->download(b);
+  EXPECT_EQ(a.x, b.x);
+  EXPECT_EQ(a.v, b.v);
+  EXPECT_EQ(a.sig, b.sig);
+  EXPECT_EQ(a.e, b.e);
+  EXPECT_EQ(a.s, b.s);
+}
+
+TEST(MpmSlabs, MoreSlabsThanTheGridHoldsAreRefused) {
+  const SceneSetup su = make_setup(tiny(ShapeKind::QuadraticBSpline));
+  SlabOptions o;
+  o.slabs = su.nodes[0] / 3 + 1;
+  try {
+    make_cpu_runner(su, o);
+    FAIL() << "accepted " << o.slabs << " slabs on " << su.nodes[0] << " columns";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("columns along x"), std::string::npos) << e.what();
+  }
+  o.slabs = su.nodes[0] / 3;
+  EXPECT_NO_THROW(make_cpu_runner(su, o));
+}
+
+}  // namespace granflow::mpm
