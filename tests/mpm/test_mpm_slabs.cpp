@@ -2,7 +2,7 @@
 // the one-slab run bit for bit (the CI column in both shapes, the 3D CI slab, the CI flume's
 // frictional base, the forces on an obstacle), with points crossing the borders; re-partitioning
 // every few steps and restarting on another slab count change nothing; too many slabs for the
-// grid is refused.
+// grid, and the fp32 and mixed precisions (compiled for one slab only), are refused.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -200,6 +200,15 @@ TEST(MpmSlabs, MoreSlabsThanTheGridHoldsAreRefused) {
   }
   o.slabs = su.nodes[0] / 3;
   EXPECT_NO_THROW(make_cpu_runner(su, o));
+  Scene fp32 = tiny(ShapeKind::QuadraticBSpline);
+  fp32.precision = Precision::FP32;
+  o.slabs = 2;
+  try {
+    make_cpu_runner(make_setup(fp32), o);
+    FAIL() << "split an fp32 scene";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("fp64 scenes only (solver.precision = fp32)"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace granflow::mpm

@@ -190,13 +190,13 @@ class CpuRunner final : public Runner {
   // P2G into the stored columns; nodes of columns below `seeded_hi` start from the values
   // already stored in them (the left neighbour's partial sums), bins left of the window are
   // left out (they are in those sums).
-  void p2g_phase(int seeded_hi) {
+  __attribute__((noinline)) void p2g_phase(int seeded_hi) {
     const auto t0 = Clock::now();
     p2g(points(), grid_view(), seeded_hi);
     times_.p2g += seconds_since(t0);
   }
 
-  void grid_phase() {
+  __attribute__((noinline)) void grid_phase() {
     const auto t0 = Clock::now();
     const GridView<S> gv = grid_view();
     if (kBoundary && contacts_[stage_])
@@ -210,7 +210,7 @@ class CpuRunner final : public Runner {
 
   // The momentum this step's holds removed from each probe's node, written into dp at the
   // probe's index in the set-up (component-major, dim x all probes).
-  void probe_momenta(std::vector<double>& dp) {
+  __attribute__((noinline)) void probe_momenta(std::vector<double>& dp) {
     const auto t0 = Clock::now();
     const GridView<S> gv = grid_view();
     const long nm = sp_.grid.n_nodes, np = static_cast<long>(dp.size()) / D;
@@ -224,7 +224,7 @@ class CpuRunner final : public Runner {
     times_.grid += seconds_since(t0);
   }
 
-  StepResult g2p_phase() {
+  __attribute__((noinline)) StepResult g2p_phase() {
     const auto t0 = Clock::now();
     const ParticleView<S> pv = points();
     const GridView<S> gv = grid_view();
