@@ -22,29 +22,18 @@ std::vector<GaugeRow> measure_gauges(const Frame& fr, const SceneSetup& su, cons
     const double w = sc.h;
     const long nb = std::max(1L, static_cast<long>(std::ceil(len / w)));
     std::vector<double> bin_mass(nb, 0.0);
-    std::vector<long> in;
+    std::vector<std::pair<long, double>> in;  // point and its distance along the line
     for (long i = 0; i < n; ++i) {
       const double dx = fr.x[i] - ga.from[0], dy = fr.x[n + i] - ga.from[1];
       const double s = dx * ex + dy * ey, d = dx * nx + dy * ny;
       if (std::abs(d) > 0.5 * ga.width || s < 0 || s > len) continue;
       bin_mass[std::min(nb - 1, static_cast<long>(s / w))] += mass[i];
-      in.push_back(i);
+      in.emplace_back(i, s);
     }
-    long first = 0, last = -1;
-    double best = 0;
-    for (long b = 0; b < nb;) {
-      if (bin_mass[b] <= 0) { ++b; continue; }
-      long e = b;
-      double m = 0;
-      while (e < nb && bin_mass[e] > 0) m += bin_mass[e++];
-      if (m > best) { best = m; first = b; last = e - 1; }
-      b = e;
-    }
+    const auto [first, last] = heaviest_run(bin_mass);
     GaugeRow r{t, t_flow, g, 0, 0, 0, 0, 0, 0};
     double s_lo = len, s_hi = 0, m_sum = 0, pn = 0, pa = 0;
-    for (long i : in) {
-      const double dx = fr.x[i] - ga.from[0], dy = fr.x[n + i] - ga.from[1];
-      const double s = dx * ex + dy * ey;
+    for (const auto& [i, s] : in) {
       const long b = std::min(nb - 1, static_cast<long>(s / w));
       if (b < first || b > last) continue;
       s_lo = std::min(s_lo, s);

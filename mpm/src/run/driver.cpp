@@ -105,17 +105,10 @@ Measures measure(const Frame& fr, const SceneSetup& su, const std::vector<double
   // count, nor does a tail left behind on the slope).
   const double w = sc.h;
   const long nb = static_cast<long>((smax - smin) / w) + 1;
-  std::vector<long> occ(nb, 0);
+  std::vector<double> occ(nb, 0.0);  // point counts, exact as doubles
   for (long i = 0; i < n; ++i)
-    if (!skip(i)) ++occ[static_cast<long>((s[i] - smin) / w)];
-  long first = 0, last = 0, best = -1;
-  for (long b = 0; b < nb;) {
-    if (!occ[b]) { ++b; continue; }
-    long e = b, cnt = 0;
-    while (e < nb && occ[e]) cnt += occ[e++];
-    if (cnt > best) { best = cnt; first = b; last = e - 1; }
-    b = e;
-  }
+    if (!skip(i)) occ[static_cast<long>((s[i] - smin) / w)] += 1;
+  const auto [first, last] = heaviest_run(occ);
   const double s_begin = smin + first * w, s_end = smin + (last + 1) * w;
   double front = s_begin;
   for (long i = 0; i < n; ++i)
@@ -126,6 +119,28 @@ Measures measure(const Frame& fr, const SceneSetup& su, const std::vector<double
   m.runout = front + 0.5 * su.spacing;
   m.height += 0.5 * su.spacing;
   return m;
+}
+
+std::pair<long, long> heaviest_run(const std::vector<double>& weight) {
+  const long nb = static_cast<long>(weight.size());
+  long first = 0, last = -1;
+  double best = 0;
+  for (long b = 0; b < nb;) {
+    if (!(weight[b] > 0)) {
+      ++b;
+      continue;
+    }
+    long e = b;
+    double m = 0;
+    while (e < nb && weight[e] > 0) m += weight[e++];
+    if (m > best) {
+      best = m;
+      first = b;
+      last = e - 1;
+    }
+    b = e;
+  }
+  return {first, last};
 }
 
 std::vector<std::pair<double, double>> free_surface(const Frame& fr, const SceneSetup& su) {

@@ -4,6 +4,7 @@
 #include <csignal>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "forces.hpp"
@@ -33,6 +34,10 @@ struct Measures {
 };
 // material >= 0: of that material's points only (su.point_material), for scenes of several.
 Measures measure(const Frame& fr, const SceneSetup& su, const std::vector<double>& mass, int material = -1);
+// Of the runs of consecutive bins of positive weight, the one of the largest total weight (the
+// first of equal ones): its first and last bin; {0, -1} when every bin is empty. The run-out's
+// deposit (point counts) and a gauge's flow (mass) are such runs.
+std::pair<long, long> heaviest_run(const std::vector<double>& weight);
 // Free surface: for bins of one grid cell along x, the highest particle top (x, y).
 std::vector<std::pair<double, double>> free_surface(const Frame& fr, const SceneSetup& su);
 
