@@ -216,6 +216,33 @@ void print_step_times(const mpm::RunSummary& s, long particles, const std::strin
     std::printf("plastic returns (second G2P pass): %.1f %% of the updates\n", 100.0 * t.deferred_share(particles));
 }
 
+// The plastic returns' cost (UpdateStats): share, evaluations (mean and quantiles), halvings,
+// hand-overs, and how the slow points sit in 32-point groups.
+void print_plastic_returns(const mpm::UpdateStats& u) {
+  if (u.plastic == 0) return;
+  const double np = double(u.plastic);
+  double sum = 0;
+  for (int e = 0; e < mpm::kCostBins; ++e) sum += double(e) * u.plastic_evaluations[e];
+  auto quantile = [&](double q) {
+    long acc = 0;
+    for (int e = 0; e < mpm::kCostBins; ++e)
+      if ((acc += u.plastic_evaluations[e]) >= q * np) return e;
+    return mpm::kCostBins - 1;
+  };
+  long slow_groups = 0, slow_points = 0, groups = 0;
+  for (int k = 0; k < 33; ++k) {
+    groups += u.slow_in_group[k];
+    if (k > 0) slow_groups += u.slow_in_group[k], slow_points += k * u.slow_in_group[k];
+  }
+  std::printf("plastic returns: %.2f %% of the updates; residual evaluations mean %.2f, median %d, 90 %% %d, "
+              "99 %% %d (%d+ counts as %d); halving trials %.3f per return; floored %.3f %%, bracketed %.3f %%; "
+              "32-point groups with a slow point (>= %d evaluations) %.2f %%, holding %.2f slow points each\n",
+              100 * np / double(u.updates), sum / np, quantile(0.5), quantile(0.9), quantile(0.99),
+              mpm::kCostBins - 1, mpm::kCostBins - 1, u.halvings / np, 100 * u.floored / np,
+              100 * u.bracketed / np, mpm::kSlowEvaluations, groups ? 100.0 * slow_groups / groups : 0.0,
+              slow_groups ? double(slow_points) / slow_groups : 0.0);
+}
+
 struct MpmOptions {
   std::string scene, out, backend = "cpu", png_fields = "p,T,eps_pd", precision;
   bool force = false, no_png = false, quiet = false, restart = false;
@@ -367,6 +394,7 @@ void run_mpm(const MpmOptions& o) {
       std::printf("substeps of one update: largest %ld; mean over 32-point groups (a GPU warp) of their largest "
                   "%.2f; mean over steps of the step's largest %.2f\n",
                   s.stats.max_substeps, s.stats.mean_warp_max(), s.stats.mean_step_max());
+    print_plastic_returns(s.stats);
   }
   std::printf("final run-out: %.4f m\nfinal height: %.4f m\nmax speed: %.4g m/s\n", s.final.runout, s.final.height,
               s.final.max_speed);

@@ -532,6 +532,49 @@ TEST(Frictional, ReturnMapCostIsBoundedNearZeroPressure) {
   EXPECT_LT(evaluations, 3.3 * cases);
 }
 
+// The cost record of each return (what issue 37 measures on the GPU): an update inside the yield
+// surface is one evaluation and no return; a return counts its halving trials among its
+// evaluations; the bracketed return is reached only through the floored one. In the random
+// low-pressure states above both hand-overs occur.
+TEST(Frictional, ReturnMapReportsWhatItDid) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0, 1);
+  long plastic = 0, floored = 0, halved = 0, cases = 0;
+  auto m = test::table3_collapse().f;
+  for (int k = 0; k < 20000; ++k) {
+    const double p0 = std::pow(10.0, -1 + 3 * u(rng)), q0 = 1.2 * p0 * u(rng);
+    Mat3<double> sigma = test::isotropic(p0);
+    sigma(0, 0) -= q0 / 3;
+    sigma(1, 1) += q0 / 3;
+    auto s = state(sigma, std::pow(10.0, -4 + 4 * u(rng)), 0.8 + 0.4 * u(rng));
+    const double g = std::pow(10.0, -6 + 4 * u(rng));
+    Mat3<double> d = Mat3<double>::Zero();
+    d(0, 1) = d(1, 0) = g * (u(rng) - 0.5);
+    d(0, 0) = g * (u(rng) - 0.5);
+    d(1, 1) = g * (u(rng) - 0.5);
+    const auto inf = frictional_return_map<SMC>(m, s, d);
+    ASSERT_TRUE(inf.ok());
+    ++cases;
+    if (!(inf.flags & info::kPlasticReturn)) {
+      EXPECT_EQ(inf.substeps, 1) << "case " << k;
+      EXPECT_EQ(inf.halvings, 0) << "case " << k;
+      EXPECT_FALSE(inf.flags & (info::kFlooredReturn | info::kBracketedReturn)) << "case " << k;
+      continue;
+    }
+    ++plastic;
+    EXPECT_LE(inf.halvings, inf.substeps - 1) << "case " << k;
+    if (inf.flags & info::kBracketedReturn) EXPECT_TRUE(inf.flags & info::kFlooredReturn) << "case " << k;
+    floored += (inf.flags & info::kFlooredReturn) != 0;
+    halved += inf.halvings > 0;
+  }
+  EXPECT_GT(plastic, cases / 5);
+  EXPECT_LT(plastic, cases);
+  EXPECT_GT(floored, 0);
+  EXPECT_GT(halved, 0);
+  std::printf("random low-pressure returns: %ld of %ld plastic, %ld with halvings, %ld floored\n", plastic, cases,
+              halved, floored);
+}
+
 TEST(Frictional, UpdateWithSpinIsSecondOrderInTheStep) {
   // Undrained simple shear (spin = strain rate) with the substepping tight enough that the
   // splitting of rotation and straining dominates: Strang splitting gives order 2.

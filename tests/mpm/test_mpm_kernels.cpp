@@ -12,6 +12,7 @@
 #include <granflow/mpm/driver.hpp>
 
 #include "one_thread.hpp"
+#include "tiny_column.hpp"
 #include <granflow/mpm/kernels.hpp>
 
 using namespace granflow;
@@ -353,4 +354,58 @@ TEST(MpmKernels, ThreeDimensionalBlockFallsFreelyAndRestsOnAFloor) {
   double p_mean = 0;
   for (long i = 0; i < n; ++i) p_mean += f2.p[i] / n;
   EXPECT_GT(p_mean, 0.0);  // the block carries its weight
+}
+
+// The per-point update record keeps the return map's cost: evaluations, halvings (at most 15) and
+// the plastic / floored / bracketed flags, besides the library's error and warning bits.
+TEST(MpmKernels, UpdateRecordPacksTheReturnMapsCost) {
+  UpdateInfo inf;
+  inf.flags = info::kTensionCutoff | info::kPlasticReturn | info::kFlooredReturn;
+  inf.substeps = 70000;
+  inf.halvings = 20;
+  std::uint32_t r = record::pack(inf);
+  EXPECT_EQ(record::evaluations(r), 65535);
+  EXPECT_EQ(record::halvings(r), 15);
+  EXPECT_TRUE(r & info::kTensionCutoff);
+  EXPECT_TRUE(r & record::kPlastic);
+  EXPECT_TRUE(r & record::kFloored);
+  EXPECT_FALSE(r & record::kBracketed);
+  EXPECT_FALSE(r & kSeparatedFlag);
+  inf.flags = info::kBracketedReturn;
+  inf.substeps = 9;
+  inf.halvings = 3;
+  r = record::pack(inf);
+  EXPECT_EQ(record::evaluations(r), 9);
+  EXPECT_EQ(record::halvings(r), 3);
+  EXPECT_EQ(r & (record::kPlastic | record::kFloored | record::kBracketed), record::kBracketed);
+}
+
+// The twin's statistics of the CI column's collapse add up: each plastic return, 32-point group
+// and update is counted once in its histogram, and the hand-overs nest.
+TEST(MpmKernels, PlasticReturnStatisticsAddUp) {
+  Scene sc = test::tiny_column(ModelKind::PhaseTransition);
+  sc.stages[1].duration = 0.1;
+  const SceneSetup su = make_setup(sc);
+  auto r = make_cpu_runner(su);
+  RunOptions opt;
+  opt.progress = false;
+  const RunSummary s = run(su, *r, opt);
+  ASSERT_TRUE(s.ok) << s.message;
+  const UpdateStats& u = s.stats;
+  long plastic = 0, groups = 0, slow_groups = 0, evals = 0;
+  for (int e = 0; e < kCostBins; ++e) {
+    plastic += u.plastic_evaluations[e];
+    groups += u.group_max[e];
+    evals += e * u.plastic_evaluations[e];
+  }
+  for (int k = 0; k < 33; ++k) slow_groups += u.slow_in_group[k];
+  EXPECT_EQ(plastic, u.plastic);
+  EXPECT_EQ(groups, u.warps);
+  EXPECT_EQ(slow_groups, u.warps);
+  EXPECT_GT(u.plastic, u.updates / 100);
+  EXPECT_LT(u.plastic, u.updates);
+  EXPECT_EQ(u.plastic_evaluations[0], 0);  // a return evaluates its residual at least once
+  EXPECT_LE(evals + (u.updates - u.plastic), u.substeps);
+  EXPECT_GE(u.floored, u.bracketed);
+  EXPECT_LE(u.halvings, u.substeps - u.plastic);
 }

@@ -265,6 +265,9 @@ flag "inadmissible". Bad arguments (shapes, keys, a non-finite grad_v or dt) rai
   flags["non_finite"] = info::kNonFinite;
   flags["inadmissible"] = info::kInadmissible;
   flags["return_unconverged"] = info::kReturnUnconverged;
+  flags["plastic_return"] = info::kPlasticReturn;
+  flags["floored_return"] = info::kFlooredReturn;
+  flags["bracketed_return"] = info::kBracketedReturn;
   m.attr("FLAGS") = flags;
   m.attr("FLAG_ERROR_MASK") = info::kErrorMask;
 }

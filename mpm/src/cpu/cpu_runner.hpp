@@ -502,34 +502,45 @@ class CpuRunner final : public Runner {
   // Update records in groups of 32 points (what a GPU warp waits for).
   void count_updates() {
     const std::uint32_t* inf = info_.data();
-    long sub = 0, lim_hits = 0, cut = 0, clamp = 0, sep = 0, wsum = 0, most = 0;
     const long nw = (n_ + 31) / 32;
-#pragma omp parallel for reduction(+ : sub, lim_hits, cut, clamp, sep, wsum) reduction(max : most)
-    for (long w = 0; w < nw; ++w) {
-      long m = 0;
-      for (long p = 32 * w; p < std::min(n_, 32 * w + 32); ++p) {
-        const std::uint32_t f = inf[p];
-        sub += f >> 16;
-        m = std::max(m, static_cast<long>(f >> 16));
-        lim_hits += (f & info::kSubstepLimit) != 0;
-        cut += (f & info::kTensionCutoff) != 0;
-        clamp += (f & info::kVsClamped) != 0;
-        sep += (f & kSeparatedFlag) != 0;
+    UpdateStats sum;
+#pragma omp parallel
+    {
+      UpdateStats u;
+#pragma omp for schedule(static)
+      for (long w = 0; w < nw; ++w) {
+        long m = 0, slow = 0;
+        for (long p = 32 * w; p < std::min(n_, 32 * w + 32); ++p) {
+          const std::uint32_t f = inf[p];
+          const long e = record::evaluations(f);
+          u.substeps += e;
+          m = std::max(m, e);
+          u.substep_limit += (f & info::kSubstepLimit) != 0;
+          u.tension_cutoff += (f & info::kTensionCutoff) != 0;
+          u.vs_clamped += (f & info::kVsClamped) != 0;
+          u.separated += (f & kSeparatedFlag) != 0;
+          if (f & record::kPlastic) {
+            ++u.plastic;
+            ++u.plastic_evaluations[std::min<long>(e, kCostBins - 1)];
+            u.halvings += record::halvings(f);
+            u.floored += (f & record::kFloored) != 0;
+            u.bracketed += (f & record::kBracketed) != 0;
+          }
+          slow += e >= kSlowEvaluations;
+        }
+        u.warp_max_substeps += m;
+        u.max_substeps = std::max(u.max_substeps, m);
+        ++u.group_max[std::min<long>(m, kCostBins - 1)];
+        ++u.slow_in_group[slow];
       }
-      wsum += m;
-      most = std::max(most, m);
+#pragma omp critical
+      sum = sum + u;
     }
-    stats_.updates += n_;
-    stats_.substeps += sub;
-    stats_.substep_limit += lim_hits;
-    stats_.tension_cutoff += cut;
-    stats_.vs_clamped += clamp;
-    stats_.separated += sep;
-    stats_.warp_max_substeps += wsum;
-    stats_.warps += nw;
-    stats_.max_substeps = std::max(stats_.max_substeps, most);
-    stats_.step_max_substeps += most;
-    ++stats_.steps;
+    sum.updates = n_;
+    sum.warps = nw;
+    sum.step_max_substeps = sum.max_substeps;
+    sum.steps = 1;
+    stats_ = stats_ + sum;
   }
 
   template <bool kContacts>

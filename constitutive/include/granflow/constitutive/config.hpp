@@ -55,11 +55,16 @@ inline constexpr std::uint32_t kNonFinite = 1u << 4;       // a non-finite value
 inline constexpr std::uint32_t kInadmissible = 1u << 5;    // inadmissible input state (state_check.hpp)
 inline constexpr std::uint32_t kErrorMask = kNonFinite | kInadmissible;
 inline constexpr std::uint32_t kDeferred = 1u << 8;        // UpdatePart::ElasticOnly met a plastic step: state untouched
+// What the return map did (cost records, docs/benchmarks.md "Plastic returns"; none is an error):
+inline constexpr std::uint32_t kPlasticReturn = 1u << 9;    // the trial state lay outside the yield surface
+inline constexpr std::uint32_t kFlooredReturn = 1u << 10;   // Newton handed over to the return along the pressure floor
+inline constexpr std::uint32_t kBracketedReturn = 1u << 11; // ... and that to the bracketed 1D return
 }  // namespace info
 
 struct UpdateInfo {
   std::uint32_t flags = 0;
   int substeps = 0;
+  int halvings = 0;  // return map: trials of halved Newton steps (after the full step was rejected)
   // The state was updated: no error, and not deferred.
   GF_HDI bool ok() const { return (flags & (info::kErrorMask | info::kDeferred)) == 0; }
   GF_HDI bool deferred() const { return (flags & info::kDeferred) != 0; }

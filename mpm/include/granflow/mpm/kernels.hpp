@@ -35,8 +35,22 @@ enum Status : std::uint32_t {
 
 // Void ratio at which a dilating point counts as separated (just inside e < 2.97 of Eq. 13).
 inline constexpr double kSeparatedVoidRatio = 2.9;
-// Bit of the per-particle update record marking a separated point (library flags use bits 0-5).
+// Bit of the per-particle update record marking a separated point (library flags use bits 0-6).
 inline constexpr std::uint32_t kSeparatedFlag = 1u << 7;
+// The rest of the record: bits 8-11 the return map's halving trials (at most 15), 12-14 its
+// plastic / floored / bracketed flags (info::kPlasticReturn.. shifted down by 9), 16-31 the
+// residual evaluations (substeps, at most 65535).
+namespace record {
+inline constexpr int kHalvingsShift = 8;
+inline constexpr std::uint32_t kPlastic = 1u << 12, kFloored = 1u << 13, kBracketed = 1u << 14;
+GF_HDI std::uint32_t pack(const UpdateInfo& inf) {
+  const std::uint32_t nsub = inf.substeps < 65535 ? static_cast<std::uint32_t>(inf.substeps) : 65535u;
+  const std::uint32_t halv = inf.halvings < 15 ? static_cast<std::uint32_t>(inf.halvings) : 15u;
+  return (inf.flags & 0x7fu) | (halv << kHalvingsShift) | (((inf.flags >> 9) & 7u) << 12) | (nsub << 16);
+}
+GF_HDI int evaluations(std::uint32_t r) { return static_cast<int>(r >> 16); }
+GF_HDI int halvings(std::uint32_t r) { return static_cast<int>((r >> kHalvingsShift) & 15u); }
+}  // namespace record
 
 // ---- ensembles ---------------------------------------------------------------------------
 // N members of one scene advance in the same loops and launches (docs/mpm_ensembles.md).
@@ -415,8 +429,7 @@ GF_HDI std::uint32_t constitutive_particle(const ParticleView<S>& pv, long p, co
   const MS e_trial = (MS(1) + st.e) * std::exp(trace(L3) * dt) - MS(1);
   const UpdateInfo inf = Model::template update<P>(sp.mp, st, L3, dt, stress);
   if (inf.deferred()) return kDeferredPoint;
-  const std::uint32_t nsub = inf.substeps < 65535 ? static_cast<std::uint32_t>(inf.substeps) : 65535u;
-  *upd_info = (inf.flags & 0xffu) | (nsub << 16);
+  *upd_info = record::pack(inf);
   if (inf.ok()) {
     IO::template store<D>(pv, p, st);
     store_sym(pv, Lay::SIG, p, stress);

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -146,6 +147,12 @@ struct PhaseTimes {
   }
 };
 
+// Histograms of the return map's cost: entry e counts e residual evaluations (substeps), the
+// last entry every count above kCostBins - 2.
+inline constexpr int kCostBins = 34;
+// A point is slow from this many evaluations on (a converged Newton return needs 2-7).
+inline constexpr int kSlowEvaluations = 8;
+
 // What the constitutive updates reported, summed over particles and steps.
 struct UpdateStats {
   long updates = 0, substeps = 0;
@@ -159,6 +166,12 @@ struct UpdateStats {
   long max_substeps = 0;
   long warp_max_substeps = 0, warps = 0;
   long step_max_substeps = 0, steps = 0;
+  // The plastic returns (the return map ran): their count, halving trials, hand-overs to the
+  // floored and the bracketed 1D returns, and the histogram of their evaluations; per group of
+  // 32 points, the histogram of the group's largest count and of its number of slow points.
+  long plastic = 0, halvings = 0, floored = 0, bracketed = 0;
+  std::array<long, kCostBins> plastic_evaluations{}, group_max{};
+  std::array<long, 33> slow_in_group{};
   double mean_warp_max() const { return warps > 0 ? double(warp_max_substeps) / double(warps) : 0.0; }
   double mean_step_max() const { return steps > 0 ? double(step_max_substeps) / double(steps) : 0.0; }
 };
@@ -175,6 +188,15 @@ inline UpdateStats operator+(UpdateStats a, const UpdateStats& b) {
   a.warps += b.warps;
   a.step_max_substeps += b.step_max_substeps;
   a.steps += b.steps;
+  a.plastic += b.plastic;
+  a.halvings += b.halvings;
+  a.floored += b.floored;
+  a.bracketed += b.bracketed;
+  for (int i = 0; i < kCostBins; ++i) {
+    a.plastic_evaluations[i] += b.plastic_evaluations[i];
+    a.group_max[i] += b.group_max[i];
+  }
+  for (int i = 0; i < 33; ++i) a.slow_in_group[i] += b.slow_in_group[i];
   return a;
 }
 

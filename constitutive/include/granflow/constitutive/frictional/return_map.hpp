@@ -261,7 +261,8 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
   const S dL_max = inv.q / (S(3) * yt.C.G);  // q >= 0
   if (dL > dL_max) dL = dL_max;
   auto v = res(p, dL);
-  int evaluations = 1;
+  int evaluations = 1, halvings = 0;
+  inf.flags |= info::kPlasticReturn;
   using Tol = Tolerances<S>;
   // Newton iterations, and halvings of one Newton step, after which the bracketed return takes
   // over (a converging Newton iteration needs 2-7 iterations and at most a few halvings).
@@ -289,6 +290,7 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
       dl_try = dl_try < S(0) ? S(0) : (dl_try > dL_max ? dL_max : dl_try);
       const auto vt = res(p + lam * dp, dl_try);
       ++evaluations;
+      halvings += ls > 0;
       if (std::fabs(vt.R1) + std::fabs(vt.R2) < norm0) {  // false for a non-finite trial
         p += lam * dp;
         dL = dl_try;
@@ -297,8 +299,10 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
       }
     }
     if (!moved) {
+      inf.flags |= info::kFlooredReturn;
       converged = detail::floored_return(res, dL_max, mp.ftol, p, dL, v, evaluations);
       if (!converged) {
+        inf.flags |= info::kBracketedReturn;
         p = p_prev;
         converged = detail::bracketed_return(res, dL_max, mp.ftol, Tol::kVolResidual, p, dL, v, evaluations);
       }
@@ -320,6 +324,7 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
     }
   }
   inf.substeps = evaluations;  // residual evaluations: the cost of the update
+  inf.halvings = halvings;
   if (!converged && std::isfinite(dL) && p < S(2) * mp.p_min) {
     // No root found within a few Pa of zero pressure, where the moduli and e_c have their
     // kink at p_min: the return ends at the cut-off (an error of at most 2 p_min in p). The

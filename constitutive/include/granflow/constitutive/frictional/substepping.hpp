@@ -133,6 +133,7 @@ GF_HDI UpdateInfo frictional_increment(const FrictionalParams<S>& mp, Frictional
           FrictionalState<S> rest{sigma, eps, e};
           const UpdateInfo ri = frictional_return_map<L>(mp, rest, Mat3<S>((S(1) - T) * d_rest));
           inf.flags |= ri.flags;
+          inf.halvings += ri.halvings;
           if (!ri.ok()) return inf;
           sigma = rest.sigma;
           eps = rest.eps_pd;
