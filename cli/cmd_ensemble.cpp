@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <exception>
 #include <cstdio>
@@ -204,11 +205,20 @@ std::string summary_csv(const mpm::EnsembleDesign& d, const mpm::Scene& sc, cons
   return os.str();
 }
 
+// Where the command's time outside the run goes (seconds; printed as one line).
+struct OutsideRun {
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point start = Clock::now();
+  double members = 0, combining = 0, runners = 0;
+  static double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+};
+
 // What one process writes and prints once every member has run: summary.csv, design.toml, the
 // report on stdout, the PNGs, the manifest.
 void finish(const EnsembleCmd& o, const mpm::EnsembleDesign& design, const mpm::Scene& sc,
             const mpm::EnsembleSummary& s, const std::string& out, io::RunFolder& folder, long particles,
-            long nodes, const std::string& device) {
+            long nodes, const std::string& device, const OutsideRun& outside = {}) {
+  const auto t_summary = OutsideRun::Clock::now();
   io::write_file(out + "/summary.csv", summary_csv(design, sc, s));
   {
     std::ifstream in(o.design, std::ios::binary);
@@ -230,6 +240,10 @@ void finish(const EnsembleCmd& o, const mpm::EnsembleDesign& design, const mpm::
   for (size_t k = 0; k < s.members.size(); ++k)
     if (!s.members[k].ok) std::printf("member %zu failed: %s\n", k, s.members[k].message.c_str());
   std::printf("output: %s (summary.csv, member_NNNN/{runout,tracked,profile_final}.csv)\n", out.c_str());
+  std::printf("outside the run: set-up %.2f s (members %.2f, combining %.2f), runners %.2f s, member files %.2f s, "
+              "summary %.2f s; command so far %.2f s\n",
+              outside.members + outside.combining, outside.members, outside.combining, outside.runners, s.files_s,
+              OutsideRun::since(t_summary), OutsideRun::since(outside.start));
   if (s.interrupted) {
     std::fprintf(stderr, "granflow: interrupted at t = %.6g s; wrote the series so far\n", s.t_end);
     throw ExitStatus{128 + s.interrupted};
@@ -374,6 +388,7 @@ void run_ensemble_ranks(const EnsembleCmd& o) {
 }
 
 void run_ensemble_cmd(const EnsembleCmd& o) {
+  OutsideRun outside;
   require_backend(o.backend);
   if (o.backend != "cuda" && o.devices > 0)
     io::warn("--devices " + std::to_string(o.devices) +
@@ -391,8 +406,11 @@ void run_ensemble_cmd(const EnsembleCmd& o) {
   mpm::SceneSetup su0 = member_setup(o, design, 0);
   const std::string estimate = check_memory(o, design, su0, groups);
   // Set-up: a Ctrl-C here stops at once (the handlers come with the run), nothing is written yet.
+  auto t0 = OutsideRun::Clock::now();
   allocating("setting up the " + std::to_string(design.members) + " members", estimate,
              [&] { ms = setup_members(o, design, 0, design.members, std::move(su0)); });
+  outside.members = OutsideRun::since(t0);
+  t0 = OutsideRun::Clock::now();
   const long per = (design.members + groups - 1) / groups;
   std::vector<std::vector<mpm::SceneSetup>> group_ms(groups);
   std::vector<mpm::SceneSetup> group_su(groups);
@@ -408,6 +426,8 @@ void run_ensemble_cmd(const EnsembleCmd& o) {
     }
   });
   ms = {};
+  outside.combining = OutsideRun::since(t0);
+  std::vector<double> runner_s(groups, 0.0);
   std::string out = o.out;
   if (out.empty()) out = "ensemble_out/" + fs::path(o.design).stem().string();
   io::RunFolder folder(out, o.force ? io::FolderUse::Force : io::FolderUse::Fresh, mpm::kCheckpointFile);
@@ -420,9 +440,11 @@ void run_ensemble_cmd(const EnsembleCmd& o) {
     SignalGuard guard;
     auto run_group = [&](int g) {
       try {
+        const auto tr = OutsideRun::Clock::now();
         if (o.backend == "cuda") mpm::cuda_select_device(g);
         auto runner = allocating("allocating the runner's buffers", estimate,
                                  [&] { return make_runner(group_su[g], o.backend, o.cuda); });
+        runner_s[g] = OutsideRun::since(tr);
         if (g == 0) {
           device = runner->device() + (groups > 1 ? " (and " + std::to_string(groups - 1) + " more)" : "");
           std::fprintf(stderr, "granflow ensemble: %s, %ld members (%s design of %s) on %d device%s\n  %s; %s\n",
@@ -453,13 +475,15 @@ void run_ensemble_cmd(const EnsembleCmd& o) {
   for (int g = 1; g < groups; ++g) {
     s.members.insert(s.members.end(), parts[g].members.begin(), parts[g].members.end());
     s.wall_s = std::max(s.wall_s, parts[g].wall_s);
+    s.files_s = std::max(s.files_s, parts[g].files_s);
     s.interrupted = s.interrupted ? s.interrupted : parts[g].interrupted;
   }
   for (const auto& su : group_su) {
     particles += su.particles.n;
     nodes += su.n_nodes * su.members;
   }
-  finish(o, design, sc, s, out, folder, particles, nodes, device);
+  for (double r : runner_s) outside.runners = std::max(outside.runners, r);
+  finish(o, design, sc, s, out, folder, particles, nodes, device, outside);
 }
 
 }  // namespace

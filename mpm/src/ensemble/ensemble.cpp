@@ -289,6 +289,7 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
   sum.t_end = t;
   sum.wall_s = elapsed();
   sum.times = runner.times();
+  const auto files0 = Clock::now();
   for (int k = 0; k < nm; ++k) {
     MemberSummary& m = sum.members[k];
     if (alive[k]) {
@@ -304,6 +305,7 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
     sum.members[k].forces = forces[k]->peaks();
     if (files) forces[k]->write_csv(member_dir(opt.out_dir, opt.first_member + static_cast<int>(k)));
   }
+  sum.files_s = std::chrono::duration<double>(Clock::now() - files0).count();
   return sum;
 }
 

@@ -51,6 +51,7 @@ struct EnsembleSummary {
   long steps = 0;
   double t_end = 0;
   double wall_s = 0;
+  double files_s = 0;  // the members' files, written after the run (not in wall_s)
   std::string device;
   PhaseTimes times;
   int interrupted = 0;
