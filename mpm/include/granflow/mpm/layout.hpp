@@ -61,7 +61,9 @@ struct GridView {
 // Storage may hold a window of node columns along x, [x0, x0 + nx) (a slab of a decomposed
 // scene, docs/mpm_slabs.md): indices I stay global (positions, shapes and the on-grid test are
 // those of the whole grid), linear() and multi() map them to and from the window's storage.
-// The whole grid: x0 = 0, nx = nodes[0]; n_nodes counts the stored nodes.
+// The whole grid: x0 = 0, nx = nodes[0]; n_nodes counts the stored nodes. Only the CPU twin
+// splits the grid yet: device code keeps the whole grid's arithmetic (its kernels' registers and
+// spills, scripts/ptxas_report.sh, are those from before the windows).
 template <int D, class S>
 struct GridDesc {
   S origin[D];
@@ -71,6 +73,19 @@ struct GridDesc {
   long n_nodes;
   AxisWalls walls[D] = {};
   int x0 = 0, nx = 0;
+#ifdef __CUDA_ARCH__
+  GF_HDI long linear(const int* I) const {
+    long k = I[D - 1];
+    for (int d = D - 2; d >= 0; --d) k = k * nodes[d] + I[d];
+    return k;
+  }
+  GF_HDI void multi(long k, int* I) const {
+    for (int d = 0; d < D; ++d) {
+      I[d] = static_cast<int>(k % nodes[d]);
+      k /= nodes[d];
+    }
+  }
+#else
   GF_HDI long linear(const int* I) const {
     long k = 0;
     for (int d = D - 1; d >= 1; --d) k = k * nodes[d] + I[d];
@@ -84,6 +99,7 @@ struct GridDesc {
       k /= nodes[d];
     }
   }
+#endif
 };
 
 // Symmetric 3x3 <-> Voigt (xx, yy, zz, yz, xz, xy).
