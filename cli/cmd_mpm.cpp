@@ -390,10 +390,13 @@ void run_mpm(const MpmOptions& o) {
                 "V_s clamped %.3g%%, separated %.3g%%\n",
                 u, s.stats.substeps / u, 100 * s.stats.substep_limit / u, 100 * s.stats.tension_cutoff / u,
                 100 * s.stats.vs_clamped / u, 100 * s.stats.separated / u);
-    if (s.stats.warps > 0)
-      std::printf("substeps of one update: largest %ld; mean over 32-point groups (a GPU warp) of their largest "
-                  "%.2f; mean over steps of the step's largest %.2f\n",
-                  s.stats.max_substeps, s.stats.mean_warp_max(), s.stats.mean_step_max());
+    if (s.stats.warps > 0) {
+      char per_step[80] = "";  // CUDA keeps no per-step largest count (steps = 0)
+      if (s.stats.steps > 0)
+        std::snprintf(per_step, sizeof per_step, "; mean over steps of the step's largest %.2f", s.stats.mean_step_max());
+      std::printf("substeps of one update: largest %ld; mean over 32-point groups (a GPU warp) of their largest %.2f%s\n",
+                  s.stats.max_substeps, s.stats.mean_warp_max(), per_step);
+    }
     print_plastic_returns(s.stats);
   }
   std::printf("final run-out: %.4f m\nfinal height: %.4f m\nmax speed: %.4g m/s\n", s.final.runout, s.final.height,

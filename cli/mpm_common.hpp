@@ -29,13 +29,13 @@ void add_override_options(CLI::App* cmd, mpm::SceneOverrides& ov);
 
 // The CUDA backend's options as given on the command line (name -> value, unset ones empty).
 struct CudaFlags {
-  std::string graphs, graph_steps, sort, p2g, g2p_block, g2p_regcap, g2p_split;
+  std::string graphs, graph_steps, sort, p2g, g2p_block, g2p_regcap, g2p_split, update_stats;
   mpm::CudaOptions options() const {
     mpm::CudaOptions o;
     const std::pair<const char*, const std::string*> all[] = {{"graphs", &graphs}, {"graph-steps", &graph_steps},
                                                               {"sort", &sort},     {"p2g", &p2g},
                                                               {"g2p-block", &g2p_block}, {"g2p-regcap", &g2p_regcap},
-                                                              {"g2p-split", &g2p_split}};
+                                                              {"g2p-split", &g2p_split}, {"update-stats", &update_stats}};
     for (const auto& [name, value] : all)
       if (!value->empty() && !mpm::set_cuda_option(o, name, *value))
         throw io::InputError(std::string("--") + name + ": invalid value '" + *value + "'");
@@ -48,6 +48,9 @@ struct CudaFlags {
     cmd->add_option("--p2g", p2g, "CUDA: P2G scatter atomic|warp|tile (default warp)");
     cmd->add_option("--g2p-block", g2p_block, "CUDA: threads per block of G2P + constitutive (default 128)");
     cmd->add_option("--g2p-regcap", g2p_regcap, "CUDA: G2P + constitutive with at most 168 registers (on|off)");
+    cmd->add_option("--update-stats", update_stats,
+                    "CUDA: reduce the per-point update records after every step: the plastic returns' cost in the "
+                    "report (on|off; default off; the CPU twin always does)");
     cmd->add_option("--g2p-split", g2p_split,
                     "CUDA: G2P in two passes, elastic updates then the deferred plastic returns (auto|on|off; default auto: from 2 waves of the fused kernel)");
   }

@@ -499,10 +499,14 @@ TEST(CudaOptions, CommandLineSpellingsAreTakenOrRefusedWithoutSideEffects) {
   EXPECT_EQ(o.sort_every, 0);
   EXPECT_TRUE(set_cuda_option(o, "g2p-block", "64"));
   EXPECT_EQ(o.g2p_block, 64);
+  EXPECT_FALSE(o.update_stats);
+  EXPECT_TRUE(set_cuda_option(o, "update-stats", "on"));
+  EXPECT_TRUE(o.update_stats);
+  EXPECT_NE(describe(o).find("update stats on"), std::string::npos);
 
   const CudaOptions before = o;
   for (const auto& [name, value] : std::vector<std::pair<std::string, std::string>>{
-           {"g2p-split", "maybe"}, {"g2p-block", "100"}, {"g2p-block", "512"}, {"sort", "-1"}, {"sort", "8x"},
+           {"g2p-split", "maybe"}, {"update-stats", "yes please"}, {"g2p-block", "100"}, {"g2p-block", "512"}, {"sort", "-1"}, {"sort", "8x"},
            {"p2g", "shared"}, {"graphs", "yes please"}, {"graph-steps", "0"}, {"g2p-splits", "on"}}) {
     EXPECT_FALSE(set_cuda_option(o, name, value)) << name << " " << value;
     EXPECT_EQ(describe(o), describe(before)) << name << " " << value << " changed the options";

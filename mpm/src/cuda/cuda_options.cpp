@@ -41,6 +41,7 @@ bool set_cuda_option(CudaOptions& o, const std::string& name, const std::string&
     return true;
   }
   if (name == "g2p-regcap") return on_off(value, o.g2p_reg_cap);
+  if (name == "update-stats") return on_off(value, o.update_stats);
   if (name == "g2p-split") {
     bool on = false;
     if (value == "auto") o.g2p_split = CudaOptions::Split::Auto;

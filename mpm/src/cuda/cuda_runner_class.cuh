@@ -20,6 +20,7 @@ namespace {
 
 struct SpanControl;  // cuda_span.cuh
 struct FieldList;    // cuda_sampling.cuh
+struct DeviceUpdateStats;  // cuda_step.cuh
 
 // kMembers: an ensemble (kernels.hpp, Members). Particles stay member-major in every order
 // (sort keys put member k before k + 1), so the member of slot p is p / P; the grid holds the
@@ -90,6 +91,7 @@ class CudaRunner final : public Runner {
   long particles() const override { return n_; }
   long nodes() const override { return nn_; }  // of all members
   std::vector<MemberFailure> retire_failed_members() override;  // cuda_span.cuh
+  UpdateStats update_stats() const override;  // cuda_step.cuh (CudaOptions::update_stats)
 
  private:
   enum { kP2G0, kGrid0, kG2P0, kG2P1, kSort0, kSort1, kSpan0, kSpan1, kNumEvents };
@@ -151,7 +153,8 @@ class CudaRunner final : public Runner {
   S* alt_ = nullptr;               // gather target of a sort; staging of downloads
   S* grid_ = nullptr;
   std::uint32_t* status_ = nullptr;
-  std::uint32_t* info_ = nullptr;  // per-slot update record (not reduced on the GPU yet)
+  std::uint32_t* info_ = nullptr;  // per-slot update record (kernels.hpp, record::pack)
+  DeviceUpdateStats* stats_ = nullptr;  // their sums (CudaOptions::update_stats; null: not kept)
   std::uint32_t* ids_ = nullptr;   // original index of each slot
   std::uint32_t* ids_alt_ = nullptr;
   std::uint32_t* inv_ = nullptr;   // slot of each original index

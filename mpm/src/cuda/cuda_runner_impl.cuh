@@ -74,6 +74,10 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const Sce
   grid_ = device_alloc<S>(static_cast<size_t>(G::N) * nn);
   status_ = device_alloc<std::uint32_t>(n_);
   info_ = device_alloc<std::uint32_t>(n_);
+  if (opt_.update_stats) {
+    stats_ = device_alloc<DeviceUpdateStats>(1);
+    check(cudaMemset(stats_, 0, sizeof(DeviceUpdateStats)), "clear update stats");
+  }
   ids_ = device_alloc<std::uint32_t>(n_);
   ids_alt_ = device_alloc<std::uint32_t>(n_);
   inv_ = device_alloc<std::uint32_t>(n_);
@@ -187,7 +191,7 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::~CudaRunner() {
                   static_cast<void*>(snap_sub_dev_), static_cast<void*>(terrain_), static_cast<void*>(material_),
                   static_cast<void*>(material_alt_), static_cast<void*>(obstacle_), static_cast<void*>(probes_),
                   static_cast<void*>(trial_), static_cast<void*>(parts_), static_cast<void*>(part_step_),
-                  static_cast<void*>(force_acc_), static_cast<void*>(node_impulse_)})
+                  static_cast<void*>(force_acc_), static_cast<void*>(node_impulse_), static_cast<void*>(stats_)})
     cudaFree(p);
   if (copy_stream_) {
     cudaStreamDestroy(copy_stream_);

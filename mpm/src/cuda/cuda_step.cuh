@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <climits>
+#include <cstddef>
 #include <cstdio>
 #include <string>
 
@@ -508,6 +509,94 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::preload() const
   }
 }
 
+// ---- update statistics (CudaOptions::update_stats) -------------------------------------------
+// UpdateStats summed on the device: each block sums its points' records in shared memory (a warp
+// is a group of 32 consecutive slots, as the CPU twin groups them), then adds its sums to the
+// run's. The per-step largest count is not kept (steps = 0).
+struct DeviceUpdateStats {
+  unsigned long long updates, substeps, substep_limit, tension_cutoff, vs_clamped, separated;
+  unsigned long long plastic, halvings, floored, bracketed, warp_max_substeps, warps, max_substeps;
+  unsigned long long plastic_evaluations[kCostBins], group_max[kCostBins], slow_in_group[33];
+};
+inline constexpr int kStatsBlock = 256;
+
+__global__ void __launch_bounds__(kStatsBlock) update_stats_kernel(const std::uint32_t* info, long n,
+                                                                   const SpanControl* ctl, DeviceUpdateStats* out) {
+  if (!ctl->active) return;
+  using U = unsigned long long;
+  constexpr int kWords = sizeof(DeviceUpdateStats) / sizeof(U);
+  __shared__ DeviceUpdateStats s;
+  U* sw = reinterpret_cast<U*>(&s);
+  for (int i = threadIdx.x; i < kWords; i += blockDim.x) sw[i] = 0;
+  __syncthreads();
+  const long p = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  const bool valid = p < n;
+  const std::uint32_t f = valid ? info[p] : 0u;
+  const int e = valid ? record::evaluations(f) : 0;
+  if (valid) {
+    atomicAdd(&s.updates, U(1));
+    atomicAdd(&s.substeps, U(e));
+    if (f & info::kSubstepLimit) atomicAdd(&s.substep_limit, U(1));
+    if (f & info::kTensionCutoff) atomicAdd(&s.tension_cutoff, U(1));
+    if (f & info::kVsClamped) atomicAdd(&s.vs_clamped, U(1));
+    if (f & kSeparatedFlag) atomicAdd(&s.separated, U(1));
+    if (f & record::kPlastic) {
+      atomicAdd(&s.plastic, U(1));
+      atomicAdd(&s.plastic_evaluations[e < kCostBins - 1 ? e : kCostBins - 1], U(1));
+      atomicAdd(&s.halvings, U(record::halvings(f)));
+      if (f & record::kFloored) atomicAdd(&s.floored, U(1));
+      if (f & record::kBracketed) atomicAdd(&s.bracketed, U(1));
+    }
+  }
+  int m = e;
+  for (int off = 16; off > 0; off >>= 1) m = max(m, __shfl_xor_sync(0xffffffffu, m, off));
+  const int slow = __popc(__ballot_sync(0xffffffffu, valid && e >= kSlowEvaluations));
+  const bool any = __any_sync(0xffffffffu, valid);
+  if ((threadIdx.x & 31) == 0 && any) {
+    atomicAdd(&s.warp_max_substeps, U(m));
+    atomicAdd(&s.warps, U(1));
+    atomicMax(&s.max_substeps, U(m));
+    atomicAdd(&s.group_max[m < kCostBins - 1 ? m : kCostBins - 1], U(1));
+    atomicAdd(&s.slow_in_group[slow], U(1));
+  }
+  __syncthreads();
+  U* ow = reinterpret_cast<U*>(out);
+  constexpr int kMax = offsetof(DeviceUpdateStats, max_substeps) / sizeof(U);
+  for (int i = threadIdx.x; i < kWords; i += blockDim.x)
+    if (sw[i]) {
+      if (i == kMax) atomicMax(&ow[i], sw[i]);
+      else atomicAdd(&ow[i], sw[i]);
+    }
+}
+
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline UpdateStats CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::update_stats() const {
+  UpdateStats u;
+  if (!stats_) return u;
+  DeviceUpdateStats h;
+  check(cudaStreamSynchronize(stream_), "update stats");
+  check(cudaMemcpy(&h, stats_, sizeof h, cudaMemcpyDeviceToHost), "update stats");
+  u.updates = long(h.updates);
+  u.substeps = long(h.substeps);
+  u.substep_limit = long(h.substep_limit);
+  u.tension_cutoff = long(h.tension_cutoff);
+  u.vs_clamped = long(h.vs_clamped);
+  u.separated = long(h.separated);
+  u.plastic = long(h.plastic);
+  u.halvings = long(h.halvings);
+  u.floored = long(h.floored);
+  u.bracketed = long(h.bracketed);
+  u.warp_max_substeps = long(h.warp_max_substeps);
+  u.warps = long(h.warps);
+  u.max_substeps = long(h.max_substeps);
+  for (int i = 0; i < kCostBins; ++i) {
+    u.plastic_evaluations[i] = long(h.plastic_evaluations[i]);
+    u.group_max[i] = long(h.group_max[i]);
+  }
+  for (int i = 0; i < 33; ++i) u.slow_in_group[i] = long(h.slow_in_group[i]);
+  return u;
+}
+
 // Queues one step (kernels only: capturable).
 template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
 inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_step(bool timed) {
@@ -584,6 +673,7 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_step(bo
       constitutive_kernel<D, S, Model, 256, 1, kMembers><<<cb, opt_.g2p_block, 0, stream_>>>(
           pv, sp_, ctl_, ids_, keys_, bins_, bins_ + nn, status_, info_);
   }
+  if (stats_) update_stats_kernel<<<blocks_for(n_, kStatsBlock), kStatsBlock, 0, stream_>>>(info_, n_, ctl_, stats_);
   if (timed) cudaEventRecord(ev_[kG2P1], stream_);
 }
 

@@ -275,7 +275,7 @@ class Runner {
   // zeroed unless `keep` (a checkpoint); restore_forces puts a checkpoint's sums back.
   virtual void take_forces(BoundaryForces& out, bool keep = false) { out = {}; (void)keep; }
   virtual void restore_forces(const BoundaryForces& in) { (void)in; }
-  // CPU twin only (the CUDA backend records them per particle but does not sum them yet).
+  // The CPU twin always; CUDA with CudaOptions::update_stats (else empty).
   virtual UpdateStats update_stats() const { return {}; }
   virtual std::string device() const = 0;
   // Settings of the backend's fast paths and kernel resources (benchmark output).
@@ -353,9 +353,12 @@ struct CudaOptions {
   // kernel up.
   enum class Split { Auto, On, Off };
   Split g2p_split = Split::Auto;
+  // Reduce the per-point update records into UpdateStats after every step (a kernel per step;
+  // off by default): the plastic returns' cost histograms of granflow mpm's report.
+  bool update_stats = false;
 };
 // Sets one option from its command-line spelling (graphs on|off, graph-steps N, sort N,
-// p2g atomic|warp|tile, g2p-block N, g2p-regcap on|off, g2p-split auto|on|off); false for an unknown
+// p2g atomic|warp|tile, g2p-block N, g2p-regcap on|off, g2p-split auto|on|off, update-stats on|off); false for an unknown
 // name or value.
 bool set_cuda_option(CudaOptions& o, const std::string& name, const std::string& value);
 inline std::string describe(const CudaOptions& o) {
@@ -364,7 +367,8 @@ inline std::string describe(const CudaOptions& o) {
          ", sort " + (o.sort_every > 0 ? "every " + std::to_string(o.sort_every) + " steps" : "off") + ", p2g " + p2g +
          ", g2p block " + std::to_string(o.g2p_block) + (o.g2p_reg_cap ? " (<= 168 registers)" : "") +
          ", g2p split " +
-         (o.g2p_split == CudaOptions::Split::Auto ? "auto" : o.g2p_split == CudaOptions::Split::On ? "on" : "off");
+         (o.g2p_split == CudaOptions::Split::Auto ? "auto" : o.g2p_split == CudaOptions::Split::On ? "on" : "off") +
+         (o.update_stats ? ", update stats on" : "");
 }
 
 std::unique_ptr<Runner> make_cpu_runner(const SceneSetup& setup);
