@@ -209,6 +209,18 @@ TEST(MpmSlabs, MoreSlabsThanTheGridHoldsAreRefused) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("fp64 scenes only (solver.precision = fp32)"), std::string::npos) << e.what();
   }
+  Scene two = tiny(ShapeKind::QuadraticBSpline);
+  Material b = two.material;
+  b.label = "b";
+  two.material.label = "a";
+  two.other_materials = {b};
+  try {
+    make_cpu_runner(make_setup(two), o);
+    FAIL() << "split a scene of two materials";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("several materials are not split yet (this one has 2)"), std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace granflow::mpm
