@@ -16,26 +16,9 @@
 #include <string>
 
 #include "cpu/cpu_runner.hpp"
+#include "run/slab_borders.hpp"
 
 namespace granflow::mpm::cpu {
-
-// Borders that give each of n slabs about the same number of points (counts: points per
-// stencil-base column), every slab at least min_width columns wide.
-inline std::vector<int> balanced_borders(const std::vector<long>& counts, int n, int min_width) {
-  const int cols = static_cast<int>(counts.size());
-  std::vector<long> below(cols + 1, 0);  // points in columns < c
-  for (int c = 0; c < cols; ++c) below[c + 1] = below[c] + counts[c];
-  std::vector<int> b(n + 1, 0);
-  b[n] = cols;
-  for (int s = 1; s < n; ++s) {
-    const double target = double(below[cols]) * s / n;
-    int x = static_cast<int>(std::lower_bound(below.begin(), below.end(), target) - below.begin());
-    x = std::max(x, b[s - 1] + min_width);
-    x = std::min(x, cols - (n - s) * min_width);
-    b[s] = x;
-  }
-  return b;
-}
 
 template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
 class SlabRunner final : public Runner {
@@ -183,9 +166,7 @@ class SlabRunner final : public Runner {
     return all;
   }
 
-  int slab_of(int column) const {
-    return static_cast<int>(std::upper_bound(borders_.begin() + 1, borders_.end() - 1, column) - borders_.begin()) - 1;
-  }
+  int slab_of(int column) const { return slab_of_column(borders_, column); }
 
   // The slabs made anew from all points (ids 0..n-1 in order); the borders balanced first.
   void distribute(SlabPoints<S>&& all) {
