@@ -120,15 +120,14 @@ std::unique_ptr<mpm::Runner> make_runner(const mpm::SceneSetup& su, const std::s
                                          const CudaFlags& flags, int devices) {
   const mpm::CudaOptions co = flags.options();  // checked for either backend
   if (devices > 1) {
-    if (backend == "cuda")
-      throw io::InputError("--devices " + std::to_string(devices) +
-                           " with --backend cuda: one scene over several GPUs is not built for CUDA yet; the CPU "
-                           "twin runs the split (--backend cpu --devices N), and granflow ensemble --devices N "
-                           "spreads an ensemble's members over GPUs");
     if (su.members > 1) throw io::InputError("--devices: an ensemble is not split into slabs");
     mpm::SlabOptions so;
     so.slabs = devices;
+    if (backend == "cuda" && mpm::cuda_device_count() < devices)
+      throw io::InputError("--devices " + std::to_string(devices) + ": this host shows " +
+                           std::to_string(mpm::cuda_device_count()) + " CUDA devices");
     try {
+      if (backend == "cuda") return mpm::make_cuda_runner(su, co, so);
       return mpm::make_cpu_runner(su, so);
     } catch (const std::invalid_argument& e) {
       throw io::InputError("--devices " + std::to_string(devices) + ": " + e.what());

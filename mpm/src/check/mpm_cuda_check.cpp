@@ -18,6 +18,10 @@
 // Several materials: the column as two layers of different sands (also without walls), and in
 // 3D builds two blocks of different sands on the terrain, GPU against the CPU twin;
 // --materials runs these cases only.
+// Slabs (cuda_slabs.cuh): the CI column (2D, 2 and 3 slabs, fp64 and fp32), the low wall with its
+// forces, the 3D low box and pier and the terrain slide, each split along x with and without
+// forced re-partitions, against the CPU twin with the same tolerances, and points must have
+// crossed a border; --slabs runs these only.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -338,6 +342,16 @@ Scene terrain_slide_scene(double duration) {
   return sc;
 }
 
+// One scene over several GPUs (cuda_slabs.cuh): while g_split.slabs > 1 the cases run their GPU
+// side split into slabs along x, slab s on device s % (visible devices) (on one GPU every slab
+// shares it and runs the same exchange and migration code), and must have migrated points.
+SlabOptions g_split;
+
+std::unique_ptr<Runner> gpu_runner(const SceneSetup& su, const char* cuda) {
+  if (g_split.slabs > 1) return make_cuda_runner(su, cuda_options(cuda), g_split);
+  return make_cuda_runner(su, cuda_options(cuda));
+}
+
 // Runs a set-up on the CPU twin and on `gpu`, prints one line (`head`: the case's name and
 // switches; `tail` before the verdict) and returns whether they agree: run-out and height within
 // tol, at most a tenth of the points more than h/4 from their twin.
@@ -360,6 +374,14 @@ bool agrees_with_twin(const SceneSetup& su, Runner& gpu, const std::string& head
   const double rel = std::fabs(b.final.runout - a.final.runout) / a.final.runout;
   const double relh = std::fabs(b.final.height - a.final.height) / a.final.height;
   bool ok = a.ok && b.ok && rel <= tol && relh <= tol && far <= ha.n / 10;
+  std::string split;
+  if (const SlabReport rep = gpu.slab_report(); rep.slabs > 1) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, " | %d slabs: %ld points migrated, %ld re-partitions (%ld asked for)", rep.slabs,
+                  rep.migrated, rep.repartitions, rep.checks);
+    split = buf;
+    ok = ok && rep.migrated > 0 && (g_split.every == 0 || rep.checks > 0);
+  }
   // boundary forces (output.forces): each boundary's impulse within 1e-3 of the twin's
   std::string forces;
   if (!a.forces.empty() && a.forces.size() == b.forces.size()) {
@@ -379,9 +401,9 @@ bool agrees_with_twin(const SceneSetup& su, Runner& gpu, const std::string& head
     forces = " | the back ends report different boundaries";
   }
   std::printf("%s cpu run-out %.5f m height %.5f m (%.2f s) | gpu run-out %.5f m height %.5f m (%.2f s, %s) | "
-              "rel. diff %.2e / %.2e | %ld of %ld points > h/4 apart%s%s %s\n",
+              "rel. diff %.2e / %.2e | %ld of %ld points > h/4 apart%s%s%s %s\n",
               head.c_str(), a.final.runout, a.final.height, a.wall_s, b.final.runout, b.final.height, b.wall_s,
-              b.device.c_str(), rel, relh, far, ha.n, forces.c_str(), tail.c_str(), ok ? "OK" : "FAIL");
+              b.device.c_str(), rel, relh, far, ha.n, forces.c_str(), split.c_str(), tail.c_str(), ok ? "OK" : "FAIL");
   if (!a.ok) std::printf("  cpu: %s\n", a.message.c_str());
   if (!b.ok) std::printf("  gpu: %s\n", b.message.c_str());
   return ok;
@@ -396,7 +418,7 @@ std::string padded(const char* fmt, const std::string& a, const char* b, const c
 // The CUDA runner of a 3D set-up, or null (a line saying so) where the 3D kernels are not compiled.
 std::unique_ptr<Runner> cuda_runner_or_skip(const SceneSetup& su, const char* cuda, const std::string& name) {
   try {
-    return make_cuda_runner(su, cuda_options(cuda));
+    return gpu_runner(su, cuda);
   } catch (const std::runtime_error& e) {
     if (!std::strstr(e.what(), "3D CUDA kernels are not compiled")) throw;
     std::printf("%s: skipped (%s)\n", name.c_str(), e.what());
@@ -442,7 +464,19 @@ bool obstacle_case(ModelKind model, ShapeKind shape, std::optional<double> mu, c
   sc.name += mu ? ", low wall mu " + std::to_string(*mu).substr(0, 4) : ", low wall";
   if (short_run) sc.stages.back().duration = 0.1;
   const SceneSetup su = make_setup(sc);
-  auto gpu = make_cuda_runner(su, cuda_options(cuda));
+  auto gpu = gpu_runner(su, cuda);
+  const char* shape_name = shape == ShapeKind::Linear ? "linear" : "quadratic";
+  return agrees_with_twin(su, *gpu, padded("%-55s %-9s %s", sc.name, shape_name, cuda), "", tol);
+}
+
+// The CI column on both back ends (agrees_with_twin), in the given precision.
+bool column_case(ModelKind model, ShapeKind shape, Precision precision, const char* cuda, bool short_run, double tol) {
+  Scene sc = small_column_scene(model, shape);
+  sc.precision = precision;
+  if (precision != Precision::FP64) sc.name += std::string(", ") + precision_name(precision);
+  if (short_run) sc.stages.back().duration = 0.1;
+  const SceneSetup su = make_setup(sc);
+  auto gpu = gpu_runner(su, cuda);
   const char* shape_name = shape == ShapeKind::Linear ? "linear" : "quadratic";
   return agrees_with_twin(su, *gpu, padded("%-55s %-9s %s", sc.name, shape_name, cuda), "", tol);
 }
@@ -583,13 +617,41 @@ int main(int argc, char** argv) {
                         {ModelKind::Frictional, ShapeKind::Linear, false, "graphs off", true}};
   // --short: 0.1 s of collapse; --ensembles: the ensemble cases only (e.g. under compute-sanitizer)
   // --materials: the cases of several materials only; --obstacles: the obstacle cases only
-  bool short_run = false, ensembles_only = false, materials_only = false, obstacles_only = false;
+  // --slabs: the cases of one scene split over GPUs only
+  bool short_run = false, ensembles_only = false, materials_only = false, obstacles_only = false, slabs_only = false;
   for (int i = 1; i < argc; ++i) {
+    slabs_only = slabs_only || std::strcmp(argv[i], "--slabs") == 0;
     short_run = short_run || std::strcmp(argv[i], "--short") == 0;
     ensembles_only = ensembles_only || std::strcmp(argv[i], "--ensembles") == 0;
     materials_only = materials_only || std::strcmp(argv[i], "--materials") == 0;
     obstacles_only = obstacles_only || std::strcmp(argv[i], "--obstacles") == 0;
   }
+  if (!ensembles_only && !obstacles_only && !materials_only) {
+    using MK = ModelKind;
+    using SK = ShapeKind;
+    auto split = [&](int slabs, long every) {
+      g_split = SlabOptions{};
+      g_split.slabs = slabs;
+      g_split.every = every;
+      for (int s = 0; s < slabs; ++s) g_split.devices.push_back(s % cuda_device_count());
+    };
+    std::printf("one scene over %d visible GPU(s), split into slabs:\n", cuda_device_count());
+    split(2, 0);
+    fails += column_case(MK::Frictional, SK::QuadraticBSpline, Precision::FP32, "g2p-split on", short_run, tol) ? 0 : 1;
+    split(3, 0);
+    fails += column_case(MK::PhaseTransition, SK::Linear, Precision::FP64, "", short_run, tol) ? 0 : 1;
+    split(3, 40);
+    fails += column_case(MK::PhaseTransition, SK::QuadraticBSpline, Precision::FP64, "sort 1", short_run, tol) ? 0 : 1;
+    split(2, 25);
+    fails += obstacle_case(MK::Frictional, SK::QuadraticBSpline, 0.3, "", short_run, tol) ? 0 : 1;
+    split(3, 0);
+    fails += obstacle_3d_case(MK::PhaseTransition, SK::QuadraticBSpline, "", short_run, tol) ? 0 : 1;
+    split(2, 30);
+    fails += terrain_case("", short_run, tol) ? 0 : 1;
+    g_split = SlabOptions{};
+    std::printf("one scene on one GPU:\n");
+  }
+  if (slabs_only) return fails == 0 ? 0 : 1;
   if (!ensembles_only && !obstacles_only) {
     fails += materials_case(ModelKind::PhaseTransition, ShapeKind::Linear, "", short_run, tol) ? 0 : 1;
     fails += materials_case(ModelKind::Frictional, ShapeKind::QuadraticBSpline, "sort 1, graphs off", short_run, tol) ? 0 : 1;

@@ -90,7 +90,7 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_sort() 
     gather_material_kernel<<<b, kAuxBlock, 0, stream_>>>(material_, material_alt_, sort_slots_[1], n_);
     check(cudaMemcpyAsync(material_, material_alt_, n_, cudaMemcpyDeviceToDevice, stream_), "sort copy");
   }
-  inverse_kernel<<<b, kAuxBlock, 0, stream_>>>(ids_, inv_, n_);
+  if (!slab_) inverse_kernel<<<b, kAuxBlock, 0, stream_>>>(ids_, inv_, n_);
 }
 
 }  // namespace

@@ -14,12 +14,13 @@
 namespace granflow::mpm {
 
 template <int D, class S, class Model, class Shape, bool kB, bool kM>
-std::unique_ptr<Runner> make_cuda_runner_t(const SceneSetup& su, const CudaOptions& opt);
+std::unique_ptr<Runner> make_cuda_runner_t(const SceneSetup& su, const CudaOptions& opt, const SlabOptions* slabs);
 
 namespace {
 
 struct MakeCuda {
   CudaOptions opt;
+  const SlabOptions* slabs = nullptr;
   template <int D, class S, class Model, class Shape, bool kB, bool kM>
   std::unique_ptr<Runner> run(const SceneSetup& su) {
 #ifndef GRANFLOW_MPM_CUDA_3D
@@ -28,7 +29,7 @@ struct MakeCuda {
     } else
 #endif
     {
-      return make_cuda_runner_t<D, S, Model, Shape, kB, kM>(su, opt);
+      return make_cuda_runner_t<D, S, Model, Shape, kB, kM>(su, opt, slabs);
     }
   }
 };
@@ -63,6 +64,11 @@ bool cuda_memory_info(std::size_t& free, std::size_t& total) {
 std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& su, const CudaOptions& options) {
   if (const std::string why = cuda_unavailable_reason(); !why.empty()) throw std::runtime_error(why + "; use --backend cpu");
   return detail::dispatch(su, MakeCuda{options});
+}
+
+std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& su, const CudaOptions& options, const SlabOptions& slabs) {
+  if (const std::string why = cuda_unavailable_reason(); !why.empty()) throw std::runtime_error(why + "; use --backend cpu");
+  return detail::dispatch(su, MakeCuda{options, &slabs});
 }
 
 }  // namespace granflow::mpm

@@ -19,6 +19,16 @@ namespace granflow::mpm {
 namespace {
 
 struct SpanControl;  // cuda_span.cuh
+template <int D, class S, class Model, class Shape, bool kBoundary>
+class CudaSlabRunner;  // cuda_slabs.cuh
+
+// A slab of a scene split over GPUs (cuda_slabs.cuh): the set-up holds the slab's points only,
+// `ids` their indices in the whole scene (ids_ keeps them, so a bad particle is reported by its
+// index in the scene), and the per-point buffers hold `capacity` points (migration adds points).
+struct SlabInit {
+  long capacity = 0;
+  const std::vector<std::uint32_t>* ids = nullptr;
+};
 struct FieldList;    // cuda_sampling.cuh
 struct DeviceUpdateStats;  // cuda_step.cuh
 
@@ -53,7 +63,7 @@ class CudaRunner final : public Runner {
   static constexpr int kElasticCap = elastic_min_blocks<typename Model::Scalar>(true);
 
  public:
-  CudaRunner(const SceneSetup& su, const CudaOptions& opt);
+  CudaRunner(const SceneSetup& su, const CudaOptions& opt, const SlabInit* slab = nullptr);
   ~CudaRunner() override;
 
   void set_stage(int stage, double damping, double flip) override {
@@ -94,6 +104,7 @@ class CudaRunner final : public Runner {
   UpdateStats update_stats() const override;  // cuda_step.cuh (CudaOptions::update_stats)
 
  private:
+  friend class CudaSlabRunner<D, S, Model, Shape, kBoundary>;
   enum { kP2G0, kGrid0, kG2P0, kG2P1, kSort0, kSort1, kSpan0, kSpan1, kNumEvents };
 
   ParticleView<S> part_view() const { return ParticleView<S>{part_, n_}; }
@@ -103,6 +114,9 @@ class CudaRunner final : public Runner {
   bool use_split();
   void preload() const;
   void enqueue_step(bool timed);
+  void enqueue_p2g();
+  void enqueue_grid();
+  void enqueue_g2p();
 
   // cuda_particle_order.cuh
   void enqueue_sort();
@@ -117,6 +131,9 @@ class CudaRunner final : public Runner {
   // cuda_span.cuh
   cudaGraphExec_t graph_for(int steps);
   cudaGraphExec_t capture(int steps);
+  void span_start(const Span& s);
+  void span_fetch();
+  SpanResult span_result();
   void run_queued(long nsteps);
   void run_timed(long nsteps);
 
@@ -141,6 +158,9 @@ class CudaRunner final : public Runner {
 
   StepParams<D, S, Model> sp_;
   long n_;
+  long cap_;           // points the per-point buffers hold (n_; a slab: more, SlabInit)
+  bool slab_ = false;  // ids_ hold indices in the whole scene (no inv_)
+  std::vector<std::uint32_t> slab_ids_;  // ... as set up (load())
   long nn_;  // grid nodes of all members (sp_.grid.n_nodes per member)
   CudaOptions opt_;
   int key_bits_ = 32;

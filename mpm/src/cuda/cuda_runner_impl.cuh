@@ -30,6 +30,7 @@
 #include "cuda_particle_order.cuh"
 #include "cuda_runner_class.cuh"
 #include "cuda_sampling.cuh"
+#include "cuda_slabs.cuh"
 #include "cuda_span.cuh"
 #include "cuda_step.cuh"
 #include "run/runner_common.hpp"
@@ -38,9 +39,19 @@ namespace granflow::mpm {
 namespace {
 
 template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
-inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const SceneSetup& su, const CudaOptions& opt)
-    : sp_(detail::step_params<D, S, Model>(su)), n_(su.particles.n), nn_(su.n_nodes * su.members), opt_(opt) {
-  if (n_ <= 0 || n_ >= (1L << 31)) throw std::runtime_error("CUDA backend: particle count out of range");
+inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const SceneSetup& su, const CudaOptions& opt,
+                                                                      const SlabInit* slab)
+    : sp_(detail::step_params<D, S, Model>(su)),
+      n_(su.particles.n),
+      cap_(slab ? std::max(slab->capacity, su.particles.n) : su.particles.n),
+      nn_(su.n_nodes * su.members),
+      opt_(opt) {
+  if (slab) {
+    slab_ = true;
+    slab_ids_ = *slab->ids;
+  }
+  if (n_ < (slab ? 0 : 1) || cap_ < 1 || cap_ >= (1L << 31))
+    throw std::runtime_error("CUDA backend: particle count out of range");
   if (kMembers != detail::uses_members(su)) throw std::logic_error("CUDA backend: ensemble instantiation mismatch");
   if (opt_.graph_steps < 1) opt_.graph_steps = 1;
   while (opt_.graph_steps & (opt_.graph_steps - 1)) opt_.graph_steps &= opt_.graph_steps - 1;  // power of two
@@ -67,34 +78,34 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const Sce
 
   check(cudaGetDevice(&device_), "cudaGetDevice");
   check(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
-  const size_t nf = static_cast<size_t>(Lay::N) * n_;
+  const size_t nf = static_cast<size_t>(Lay::N) * cap_;
   const long nn = nn_;  // of all members
   part_ = device_alloc<S>(nf);
   alt_ = device_alloc<S>(nf);
   grid_ = device_alloc<S>(static_cast<size_t>(G::N) * nn);
-  status_ = device_alloc<std::uint32_t>(n_);
-  info_ = device_alloc<std::uint32_t>(n_);
+  status_ = device_alloc<std::uint32_t>(cap_);
+  info_ = device_alloc<std::uint32_t>(cap_);
   if (opt_.update_stats) {
     stats_ = device_alloc<DeviceUpdateStats>(1);
     check(cudaMemset(stats_, 0, sizeof(DeviceUpdateStats)), "clear update stats");
   }
-  ids_ = device_alloc<std::uint32_t>(n_);
-  ids_alt_ = device_alloc<std::uint32_t>(n_);
-  inv_ = device_alloc<std::uint32_t>(n_);
+  ids_ = device_alloc<std::uint32_t>(cap_);
+  ids_alt_ = device_alloc<std::uint32_t>(cap_);
+  inv_ = device_alloc<std::uint32_t>(cap_);
   if (!sp_.vol_avg && use_split()) {
-    deferred_ = device_alloc<std::uint32_t>(n_);
+    deferred_ = device_alloc<std::uint32_t>(cap_);
     n_deferred_ = device_alloc<unsigned>(1);
     check(cudaMemset(n_deferred_, 0, sizeof(unsigned)), "clear deferred count");
   }
   if (sp_.vol_avg) {
-    keys_ = device_alloc<long>(n_);
+    keys_ = device_alloc<long>(cap_);
     bins_ = device_alloc<S>(2 * static_cast<size_t>(nn));
   }
   if (opt_.sort_every > 0) {
-    for (auto*& a : sort_keys_) a = device_alloc<SortKey>(n_);
-    for (auto*& a : sort_slots_) a = device_alloc<std::uint32_t>(n_);
+    for (auto*& a : sort_keys_) a = device_alloc<SortKey>(cap_);
+    for (auto*& a : sort_slots_) a = device_alloc<std::uint32_t>(cap_);
     check(cub::DeviceRadixSort::SortPairs(nullptr, sort_tmp_bytes_, sort_keys_[0], sort_keys_[1], sort_slots_[0],
-                                          sort_slots_[1], static_cast<int>(n_), 0, key_bits_, stream_),
+                                          sort_slots_[1], static_cast<int>(cap_), 0, key_bits_, stream_),
           "sort size");
     sort_tmp_ = device_alloc<unsigned char>(sort_tmp_bytes_);
   }
@@ -165,8 +176,8 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const Sce
     sp_.members.dead = dead_;
     if (!su.point_material.empty()) {  // uploaded in load()
       material_host_ = su.point_material;
-      material_ = device_alloc<std::uint8_t>(n_);
-      material_alt_ = device_alloc<std::uint8_t>(n_);
+      material_ = device_alloc<std::uint8_t>(cap_);
+      material_alt_ = device_alloc<std::uint8_t>(cap_);
       sp_.members.material = material_;
     }
   }
@@ -259,12 +270,18 @@ template <int D, class S, class Model, class Shape, bool kBoundary, bool kMember
 inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::load(const HostParticles& hp) {
   if (hp.n != n_) throw std::runtime_error("CUDA backend: particle count differs from the set-up");
   const std::vector<S> host = detail::pack<D, S, kColl>(hp);
-  check(cudaMemcpyAsync(part_, host.data(), host.size() * sizeof(S), cudaMemcpyHostToDevice, stream_),
-        "upload particles");
+  if (!host.empty())
+    check(cudaMemcpyAsync(part_, host.data(), host.size() * sizeof(S), cudaMemcpyHostToDevice, stream_),
+          "upload particles");
   if (material_)
     check(cudaMemcpyAsync(material_, material_host_.data(), n_, cudaMemcpyHostToDevice, stream_), "upload materials");
-  iota_kernel<<<blocks_for(n_, kAuxBlock), kAuxBlock, 0, stream_>>>(ids_, n_);
-  iota_kernel<<<blocks_for(n_, kAuxBlock), kAuxBlock, 0, stream_>>>(inv_, n_);
+  if (slab_) {  // indices in the whole scene (no inverse: a slab is sampled through cuda_slabs.cuh)
+    check(cudaMemcpyAsync(ids_, slab_ids_.data(), sizeof(std::uint32_t) * n_, cudaMemcpyHostToDevice, stream_),
+          "upload ids");
+  } else if (n_ > 0) {
+    iota_kernel<<<blocks_for(n_, kAuxBlock), kAuxBlock, 0, stream_>>>(ids_, n_);
+    iota_kernel<<<blocks_for(n_, kAuxBlock), kAuxBlock, 0, stream_>>>(inv_, n_);
+  }
   // the grid kernel keeps mass, momentum and force zero between steps; velocities of nodes
   // no particle reaches are weighed by zero and must only be finite
   check(cudaMemsetAsync(grid_, 0, sizeof(S) * G::N * nn_, stream_), "clear grid");
@@ -275,7 +292,19 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::load(const Host
 }  // namespace
 
 template <int D, class S, class Model, class Shape, bool kB, bool kM>
-std::unique_ptr<Runner> make_cuda_runner_t(const SceneSetup& su, const CudaOptions& opt) {
+std::unique_ptr<Runner> make_cuda_runner_t(const SceneSetup& su, const CudaOptions& opt, const SlabOptions* slabs) {
+  if (slabs && slabs->slabs > 1) {
+    if constexpr (kB && !kM) {
+      return std::make_unique<CudaSlabRunner<D, S, Model, Shape, kB>>(su, opt, *slabs);
+    } else if (su.members > 1) {
+      throw std::invalid_argument("slabs: an ensemble is not split (--devices spreads its members over GPUs)");
+    } else if (su.scene.material_count() > 1) {
+      throw std::invalid_argument("slabs: scenes of several materials are not split yet (this one has " +
+                                  std::to_string(su.scene.material_count()) + ")");
+    } else {
+      throw std::invalid_argument("slabs: a scene without a wall, a base or a gate is not split");
+    }
+  }
   return std::make_unique<CudaRunner<D, S, Model, Shape, kB, kM>>(su, opt);
 }
 
@@ -291,7 +320,7 @@ std::unique_ptr<Runner> make_cuda_runner_t(const SceneSetup& su, const CudaOptio
 // boundary code, storage S; cuda_kernels_mat3d_*.cu, compiled only with GRANFLOW_MPM_CUDA_3D).
 #define GF_MPM_CUDA_INSTANTIATE_ONE_M(D, S, MODEL, SHAPE, KB, KM)                                                \
   template std::unique_ptr<granflow::mpm::Runner> granflow::mpm::make_cuda_runner_t<D, S, MODEL, SHAPE, KB, KM>( \
-      const granflow::mpm::SceneSetup&, const granflow::mpm::CudaOptions&);
+      const granflow::mpm::SceneSetup&, const granflow::mpm::CudaOptions&, const granflow::mpm::SlabOptions*);
 #define GF_MPM_CUDA_INSTANTIATE_ONE(D, S, MODEL, SHAPE, KB) GF_MPM_CUDA_INSTANTIATE_ONE_M(D, S, MODEL, SHAPE, KB, false)
 #define GF_MPM_CUDA_INSTANTIATE_ENSEMBLE(S, MODEL, SHAPE) GF_MPM_CUDA_INSTANTIATE_ONE_M(2, S, MODEL, SHAPE, true, true)
 #define GF_MPM_CUDA_INSTANTIATE_MATERIALS_3D(S, MODEL, SHAPE) \

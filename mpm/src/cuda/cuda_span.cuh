@@ -132,6 +132,25 @@ inline StepResult CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::step(doub
 
 template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
 inline SpanResult CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::advance_span(const Span& s) {
+  span_start(s);
+  check(cudaEventRecord(ev_[kSpan0], stream_), "event");
+  if (s.timing)
+    run_timed(s.max_steps);
+  else
+    run_queued(s.max_steps);
+  check(cudaEventRecord(ev_[kSpan1], stream_), "event");
+  span_fetch();
+  check(cudaStreamSynchronize(stream_), "span");
+  check(cudaGetLastError(), "span kernels");
+  float ms = 0;
+  cudaEventElapsedTime(&ms, ev_[kSpan0], ev_[kSpan1]);
+  times_.device += 1e-3 * ms;
+  return span_result();
+}
+
+// Queues the copy of the span's control to the device.
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::span_start(const Span& s) {
   SpanControl& c = *ctl_in_;
   std::memset(&c, 0, sizeof c);
   c.t = s.t;
@@ -149,19 +168,17 @@ inline SpanResult CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::advance_s
   c.lim = dt_limit_bits(1e300);
   if constexpr (kMembers) c.member_bad = member_bad_;
   check(cudaMemcpyAsync(ctl_, ctl_in_, sizeof c, cudaMemcpyHostToDevice, stream_), "span start");
-  check(cudaEventRecord(ev_[kSpan0], stream_), "event");
-  if (s.timing)
-    run_timed(s.max_steps);
-  else
-    run_queued(s.max_steps);
-  check(cudaEventRecord(ev_[kSpan1], stream_), "event");
-  check(cudaMemcpyAsync(ctl_out_, ctl_, sizeof c, cudaMemcpyDeviceToHost, stream_), "span end");
-  check(cudaStreamSynchronize(stream_), "span");
-  check(cudaGetLastError(), "span kernels");
-  float ms = 0;
-  cudaEventElapsedTime(&ms, ev_[kSpan0], ev_[kSpan1]);
+}
+
+// Queues the copy of the span's control back to the host (span_result reads it after a sync).
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::span_fetch() {
+  check(cudaMemcpyAsync(ctl_out_, ctl_, sizeof(SpanControl), cudaMemcpyDeviceToHost, stream_), "span end");
+}
+
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline SpanResult CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::span_result() {
   const SpanControl& o = *ctl_out_;
-  times_.device += 1e-3 * ms;
   times_.span_steps += o.steps;
   times_.deferred += static_cast<long>(o.deferred);
   t_ = o.t;

@@ -597,17 +597,25 @@ inline UpdateStats CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::update_s
   return u;
 }
 
-// Queues one step (kernels only: capturable).
+// Queues one step (kernels only: capturable): P2G, grid update and G2P, which a scene split
+// over GPUs (cuda_slabs.cuh) queues one by one with its exchanges in between.
 template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
 inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_step(bool timed) {
-  const long nn = nn_;  // of all members
-  const ParticleView<S> pv = part_view();
-  const GridView<S> gv{grid_, nn, masks_[stage_]};
-  const unsigned pb = blocks_for(n_, kP2GBlock);
-  const unsigned gb = blocks_for(nn, kGridBlock);
-  const unsigned cb = blocks_for(n_, opt_.g2p_block);
-  long* bk = sp_.vol_avg ? keys_ : nullptr;
   if (timed) cudaEventRecord(ev_[kP2G0], stream_);
+  enqueue_p2g();
+  if (timed) cudaEventRecord(ev_[kGrid0], stream_);
+  enqueue_grid();
+  if (timed) cudaEventRecord(ev_[kG2P0], stream_);
+  enqueue_g2p();
+  if (timed) cudaEventRecord(ev_[kG2P1], stream_);
+}
+
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_p2g() {
+  const ParticleView<S> pv = part_view();
+  const GridView<S> gv{grid_, nn_, masks_[stage_]};
+  const unsigned pb = blocks_for(n_, kP2GBlock);
+  long* bk = sp_.vol_avg ? keys_ : nullptr;
   switch (opt_.p2g) {
     case CudaOptions::P2G::Atomic:
       p2g_kernel<D, S, Model, Shape, kP2GAtomic, kMembers><<<pb, kP2GBlock, 0, stream_>>>(pv, gv, sp_, ctl_, bk);
@@ -620,7 +628,12 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_step(bo
         p2g_kernel<D, S, Model, Shape, kP2GTile, false><<<pb, kP2GBlock, 0, stream_>>>(pv, gv, sp_, ctl_, bk);
       break;
   }
-  if (timed) cudaEventRecord(ev_[kGrid0], stream_);
+}
+
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_grid() {
+  const GridView<S> gv{grid_, nn_, masks_[stage_]};
+  const unsigned gb = blocks_for(nn_, kGridBlock);
   if constexpr (kBoundary)
     if (n_probes_ > 0)
       probe_trial_kernel<D, S, Model, kMembers><<<blocks_for(n_probes_, kGridBlock), kGridBlock, 0, stream_>>>(
@@ -644,7 +657,15 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_step(bo
                                                      n_boundaries_);
     }
   }
-  if (timed) cudaEventRecord(ev_[kG2P0], stream_);
+}
+
+template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_g2p() {
+  const long nn = nn_;  // of all members
+  const ParticleView<S> pv = part_view();
+  const GridView<S> gv{grid_, nn, masks_[stage_]};
+  const unsigned pb = blocks_for(n_, kP2GBlock);
+  const unsigned cb = blocks_for(n_, opt_.g2p_block);
   if (split()) {
     const unsigned eb = blocks_for(n_, kSplitBlock);
     if (opt_.g2p_reg_cap)
@@ -674,7 +695,6 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_step(bo
           pv, sp_, ctl_, ids_, keys_, bins_, bins_ + nn, status_, info_);
   }
   if (stats_) update_stats_kernel<<<blocks_for(n_, kStatsBlock), kStatsBlock, 0, stream_>>>(info_, n_, ctl_, stats_);
-  if (timed) cudaEventRecord(ev_[kG2P1], stream_);
 }
 
 template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>

@@ -9,6 +9,9 @@ std::string cuda_unavailable_reason() { return "this granflow was built without 
 std::unique_ptr<Runner> make_cuda_runner(const SceneSetup&, const CudaOptions&) {
   throw std::runtime_error(cuda_unavailable_reason() + "; use --backend cpu");
 }
+std::unique_ptr<Runner> make_cuda_runner(const SceneSetup&, const CudaOptions&, const SlabOptions&) {
+  throw std::runtime_error(cuda_unavailable_reason() + "; use --backend cpu");
+}
 bool cuda_backend_available() { return false; }
 bool cuda_memory_info(std::size_t&, std::size_t&) { return false; }
 int cuda_device_count() { return 0; }

@@ -233,6 +233,7 @@ struct SlabOptions {
   double imbalance = 1.2;  // re-partition when the fullest slab holds this many times the mean
   long min_steps = 100;    // steps at least between two re-partitions for imbalance
   long every = 0;          // > 0: re-partition every this many steps as well (tests)
+  std::vector<int> devices;  // CUDA: the device of each slab (empty: slab s on device s)
 };
 
 // How a decomposed run went (SlabRunner; slabs = 1: not decomposed).
@@ -377,6 +378,11 @@ std::unique_ptr<Runner> make_cpu_runner(const SceneSetup& setup);
 std::unique_ptr<Runner> make_cpu_runner(const SceneSetup& setup, const SlabOptions& slabs);
 // Defined by the CUDA backend library; throws when CUDA was not built or no device exists.
 std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& setup, const CudaOptions& options = {});
+// slabs.slabs > 1: the scene split into slabs along x, one per GPU (slabs.devices; a device may
+// take several slabs, as tests do on one GPU). Throws std::invalid_argument for what is not
+// split (ensembles, several materials, no wall, volumetric averaging, too narrow a grid).
+std::unique_ptr<Runner> make_cuda_runner(const SceneSetup& setup, const CudaOptions& options,
+                                         const SlabOptions& slabs);
 bool cuda_backend_available();
 // Why the CUDA backend cannot run here ("" when it can): built without CUDA, or no device visible.
 std::string cuda_unavailable_reason();
