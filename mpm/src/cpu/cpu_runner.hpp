@@ -368,18 +368,8 @@ class CpuRunner final : public Runner {
   PhaseTimes times() const override { return times_; }
   UpdateStats update_stats() const override { return stats_; }
   void reset_times() override { times_ = PhaseTimes{}; }
-  void take_forces(BoundaryForces& out, bool keep) override {
-    out = forces_;
-    if (keep) return;
-    std::fill(forces_.parts.begin(), forces_.parts.end(), ForceSums{});
-    std::fill(forces_.boundaries.begin(), forces_.boundaries.end(), ForceSums{});
-    std::fill(forces_.node_impulse.begin(), forces_.node_impulse.end(), 0.0);
-  }
-  void restore_forces(const BoundaryForces& in) override {
-    if (in.parts.size() == forces_.parts.size() && in.boundaries.size() == forces_.boundaries.size() &&
-        in.node_impulse.size() == forces_.node_impulse.size())
-      forces_ = in;
-  }
+  void take_forces(BoundaryForces& out, bool keep) override { take_host_forces(forces_, out, keep); }
+  void restore_forces(const BoundaryForces& in) override { restore_host_forces(forces_, in); }
   std::string device() const override {
     int threads = 1;
 #ifdef _OPENMP

@@ -30,12 +30,8 @@ class SlabRunner final : public Runner {
  public:
   SlabRunner(const SceneSetup& su, const SlabOptions& o)
       : su_(su), opt_(o), whole_(detail::grid_desc<D, S>(su)), flip_(su.scene.flip) {
-    if (su.members > 1)
-      throw std::invalid_argument("slabs: an ensemble is not split (--devices spreads its members over GPUs)");
-    if (o.slabs < 1 || su.nodes[0] < K * o.slabs)
-      throw std::invalid_argument("slabs: " + std::to_string(o.slabs) + " slabs of at least " + std::to_string(K) +
-                                  " node columns each (one stencil) do not fit the grid's " +
-                                  std::to_string(su.nodes[0]) + " columns along x");
+    check_split(su, o, K);
+    rule_.opt = o;
     if constexpr (kBoundary) {
       probes_ = su.probes;
       parts_ = su.force_parts;
@@ -132,28 +128,14 @@ class SlabRunner final : public Runner {
     for (const auto& s : slabs_) u = u + s->update_stats();
     return u;
   }
-  void take_forces(BoundaryForces& out, bool keep) override {
-    out = forces_;
-    if (keep) return;
-    std::fill(forces_.parts.begin(), forces_.parts.end(), ForceSums{});
-    std::fill(forces_.boundaries.begin(), forces_.boundaries.end(), ForceSums{});
-    std::fill(forces_.node_impulse.begin(), forces_.node_impulse.end(), 0.0);
-  }
-  void restore_forces(const BoundaryForces& in) override {
-    if (in.parts.size() == forces_.parts.size() && in.boundaries.size() == forces_.boundaries.size() &&
-        in.node_impulse.size() == forces_.node_impulse.size())
-      forces_ = in;
-  }
+  void take_forces(BoundaryForces& out, bool keep) override { take_host_forces(forces_, out, keep); }
+  void restore_forces(const BoundaryForces& in) override { restore_host_forces(forces_, in); }
   std::string device() const override {
     return slabs_[0]->device() + ", " + std::to_string(slabs_.size()) + " slabs along x";
   }
   long particles() const override { return su_.particles.n; }
   long nodes() const override { return su_.n_nodes; }
-  SlabReport slab_report() const override {
-    SlabReport r = report_;
-    r.borders = borders_;
-    return r;
-  }
+  SlabReport slab_report() const override { return report_; }
 
  private:
   SlabPoints<S> whole_points(std::vector<S> part) const {
@@ -176,13 +158,8 @@ class SlabRunner final : public Runner {
 #pragma omp parallel for schedule(static)
     for (long p = 0; p < all.n; ++p)
       col[p] = std::clamp(base_column<D, S, Shape, Model::kCollisional>(pv, p, whole_), 0, cols - 1);
-    std::vector<long> counts(cols, 0);
-    for (long p = 0; p < all.n; ++p) ++counts[col[p]];
-    const std::vector<int> b = balanced_borders(counts, n, K);
-    if (!borders_.empty() && b != borders_) ++report_.repartitions;
-    borders_ = b;
-    std::vector<std::vector<long>> which(n);
-    for (long p = 0; p < all.n; ++p) which[slab_of(col[p])].push_back(p);
+    const std::vector<std::vector<long>> which = assign_slabs(col, cols, n, K, report_);
+    borders_ = report_.borders;
     for (const auto& s : slabs_) retired_stats_ = retired_stats_ + s->update_stats();
     slabs_.clear();
     report_.halo_nodes = 0;
@@ -260,17 +237,9 @@ class SlabRunner final : public Runner {
   }
 
   void rebalance_if_needed() {
-    ++steps_;
-    ++since_;
     long most = 0;
     for (const auto& s : slabs_) most = std::max(most, s->particles());
-    const double imbalance = su_.particles.n > 0 ? double(most) * double(slabs_.size()) / double(su_.particles.n) : 1.0;
-    report_.max_imbalance = std::max(report_.max_imbalance, imbalance);
-    const bool every = opt_.every > 0 && steps_ % opt_.every == 0;
-    if (!every && !(imbalance > opt_.imbalance && since_ >= opt_.min_steps)) return;
-    ++report_.checks;
-    since_ = 0;
-    distribute(gather());
+    if (rule_.after_step(most, su_.particles.n, static_cast<int>(slabs_.size()), report_)) distribute(gather());
   }
 
   SceneSetup su_;
@@ -280,7 +249,7 @@ class SlabRunner final : public Runner {
   std::vector<int> borders_;
   int stage_ = 0;
   double damping_ = 0, flip_ = 0, t_ = 0;
-  long steps_ = 0, since_ = 0;
+  Repartitioning rule_;
   std::vector<ForceProbe> probes_;
   std::vector<ForcePart> parts_;
   int n_boundaries_ = 0;

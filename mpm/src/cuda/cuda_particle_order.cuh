@@ -42,14 +42,16 @@ __global__ void member_sort_key_kernel(ParticleView<S> pv, GridDesc<D, S> g, lon
   slots[p] = static_cast<std::uint32_t>(p);
 }
 
+// Slots dst0 + i of dst get slots perm[i] of src, i < count (fields and original indices): a
+// sort, and a slab's points leaving or staying (cuda_slabs.cuh).
 template <class S>
 __global__ void gather_kernel(ParticleView<S> src, ParticleView<S> dst, int nfields, const std::uint32_t* perm,
-                              const std::uint32_t* ids_src, std::uint32_t* ids_dst) {
+                              long count, long dst0, const std::uint32_t* ids_src, std::uint32_t* ids_dst) {
   const long i = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
-  if (i >= src.n) return;
+  if (i >= count) return;
   const long from = perm[i];
-  gather_slot(src, dst, nfields, i, from);
-  ids_dst[i] = ids_src[from];
+  gather_slot(src, dst, nfields, dst0 + i, from);
+  ids_dst[dst0 + i] = ids_src[from];
 }
 
 // Several materials: the material index of each slot follows its point.
@@ -82,8 +84,8 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_sort() 
   check(cub::DeviceRadixSort::SortPairs(sort_tmp_, sort_tmp_bytes_, sort_keys_[0], sort_keys_[1], sort_slots_[0],
                                         sort_slots_[1], static_cast<int>(n_), 0, key_bits_, stream_),
         "sort");
-  gather_kernel<S><<<b, kAuxBlock, 0, stream_>>>(part_view(), ParticleView<S>{alt_, n_}, Lay::N, sort_slots_[1],
-                                                 ids_, ids_alt_);
+  gather_kernel<S><<<b, kAuxBlock, 0, stream_>>>(part_view(), ParticleView<S>{alt_, n_}, Lay::N, sort_slots_[1], n_,
+                                                 0, ids_, ids_alt_);
   check(cudaMemcpyAsync(part_, alt_, sizeof(S) * Lay::N * n_, cudaMemcpyDeviceToDevice, stream_), "sort copy");
   check(cudaMemcpyAsync(ids_, ids_alt_, sizeof(std::uint32_t) * n_, cudaMemcpyDeviceToDevice, stream_), "sort copy");
   if (material_) {

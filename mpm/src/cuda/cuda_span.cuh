@@ -115,16 +115,21 @@ __device__ __forceinline__ void finish_step(SpanControl* ctl, double lim, int wa
 
 // ---- the runner's spans ------------------------------------------------------------------
 
+// A span of one step of size dt from t; adaptive: its result's dt is the stable limit itself.
+inline Span one_step_span(double t, double dt, bool adaptive) {
+  Span s;
+  s.max_steps = 1;
+  s.t = t;
+  s.dt = dt;
+  s.adaptive = adaptive;
+  s.dt_max = std::numeric_limits<double>::infinity();
+  return s;
+}
+
 // One step is a span of one step.
 template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
 inline StepResult CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::step(double dt, bool want_dt_limit) {
-  Span s;
-  s.max_steps = 1;
-  s.t = t_;
-  s.dt = dt;
-  s.adaptive = want_dt_limit;
-  s.dt_max = std::numeric_limits<double>::infinity();  // next dt = the limit itself
-  const SpanResult r = advance_span(s);
+  const SpanResult r = advance_span(one_step_span(t_, dt, want_dt_limit));
   StepResult out = step_result(r);
   if (want_dt_limit && r.ok) out.dt_limit = r.dt;
   return out;

@@ -43,6 +43,20 @@ struct BoundaryForces {
   std::vector<double> node_impulse;          // sum of dp per probe, component-major (dim x probes)
 };
 
+// Runner::take_forces and restore_forces of a back end that keeps its sums on the host.
+inline void take_host_forces(BoundaryForces& sums, BoundaryForces& out, bool keep) {
+  out = sums;
+  if (keep) return;
+  std::fill(sums.parts.begin(), sums.parts.end(), ForceSums{});
+  std::fill(sums.boundaries.begin(), sums.boundaries.end(), ForceSums{});
+  std::fill(sums.node_impulse.begin(), sums.node_impulse.end(), 0.0);
+}
+inline void restore_host_forces(BoundaryForces& sums, const BoundaryForces& in) {
+  if (in.parts.size() == sums.parts.size() && in.boundaries.size() == sums.boundaries.size() &&
+      in.node_impulse.size() == sums.node_impulse.size())
+    sums = in;
+}
+
 struct SceneSetup {
   Scene scene;
   HostParticles particles;
