@@ -32,6 +32,9 @@
 #                  45-65 deg, phase-transition or frictional-only model, 2 s of flow, CFL step
 #   loadcell-ens   the 45 deg load-cell flume's peak force over flume_study.toml (64 members,
 #                  fp32, 1.5 s of flow, 5 ms force samples); analysis: scripts/loadcell_study.py
+#   slabs          one scene over 2 GPUs (needs 2): mpm_cuda_check --slabs; the 3D slab's strong
+#                  scaling (--stop-after 0.15, fp32) and the slab widened to 6.4e7 points (bench
+#                  mpm), on 2 and 1 GPUs
 #   ensemble-batched  the batched runs of the ensemble part only, the 5 mm one also sampled
 #                  sparsely (ENS_1MM=0: without the 1 mm ensemble)
 #   ensemble-diag  the 64-member column sampled sparsely; a 1 mm member alone, twice
@@ -529,6 +532,25 @@ part_3d() {
   grep -h "memory:" "$R"/bench_3D_slab_*.txt | sort -u
 }
 
+# One scene over the GPUs of a host (needs 2 GPUs; docs/mpm_slabs.md): the split's checks, the
+# 3D slab's strong scaling (whole runs, 2 then 1 GPU) and the slab widened to 6.4e7 points.
+part_slabs() {
+  local n t0 wide=(--set 'grid.size=[0.60,0.15,0.40]' --set 'body[0].max=[0.20,0.10,0.40]')
+  x 200 "$R/check_slabs.txt" "$B/mpm_cuda_check" --slabs --short || echo "  (slab checks failed, see $R/check_slabs.txt)"
+  grep -o "[0-9]* slabs: .*" "$R/check_slabs.txt"
+  for n in 2 1; do
+    t0=$SECONDS
+    run "slab3d_${n}gpu" 300 "$SC/column_collapse_3d.toml" --precision fp32 --stop-after 0.15 --devices $n
+    echo "  3D slab on $n GPU(s): whole command $((SECONDS - t0)) s"
+  done
+  for n in 2 1; do
+    t0=$SECONDS
+    bench "slab3d 6.4e7 $n GPU" 300 "$SC/column_collapse_3d.toml" --precision fp32 "${wide[@]}" --steps 60 --warmup 5 \
+      --devices $n
+    echo "  6.4e7 points on $n GPU(s): whole command $((SECONDS - t0)) s"
+  done
+}
+
 main() {
   if [ $# -eq 0 ]; then
     sed -n '2,/^set -o/p' "${BASH_SOURCE[0]}" | sed '$d' | sed 's/^# \{0,1\}//'
@@ -537,8 +559,8 @@ main() {
   local part fn f t0 status=0
   for part in "$@"; do
     case $part in
-      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options | flow | sanitize-ensemble | loadcell-pt | loadcell-fr | loadcell-ens) ;;
-      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options flow sanitize-ensemble loadcell-pt loadcell-fr loadcell-ens)" >&2
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options | flow | sanitize-ensemble | loadcell-pt | loadcell-fr | loadcell-ens | slabs) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options flow sanitize-ensemble loadcell-pt loadcell-fr loadcell-ens slabs)" >&2
          return 2 ;;
     esac
   done

@@ -28,6 +28,7 @@ class CudaSlabRunner;  // cuda_slabs.cuh
 struct SlabInit {
   long capacity = 0;
   const std::vector<std::uint32_t>* ids = nullptr;
+  const void* packed = nullptr;  // the points' state (field-major, storage type; the set-up's HostParticles hold n only)
 };
 struct FieldList;    // cuda_sampling.cuh
 struct DeviceUpdateStats;  // cuda_step.cuh
@@ -145,7 +146,7 @@ class CudaRunner final : public Runner {
   void fill_subset(const std::vector<S>& small, const std::vector<long>& subset, Frame& out) const;
 
   // cuda_runner_impl.cuh
-  void load(const HostParticles& hp);
+  void load(const HostParticles& hp, const S* packed = nullptr);
 
   // Ensembles: the members with their values in host memory (make_frame's diagnostics).
   Members<typename Model::Params, S> host_members() const {

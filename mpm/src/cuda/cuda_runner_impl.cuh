@@ -183,7 +183,7 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const Sce
   }
   for (auto& e : ev_) check(cudaEventCreate(&e), "cudaEventCreate");
   preload();
-  load(su.particles);
+  load(su.particles, slab ? static_cast<const S*>(slab->packed) : nullptr);
   set_stage(0, 0.0, su.scene.flip);
 }
 
@@ -267,11 +267,12 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::restore_forces(
 // velocities, which nodes out of reach would otherwise pass on weighted by zero). Ensembles:
 // retired members stay retired.
 template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
-inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::load(const HostParticles& hp) {
+inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::load(const HostParticles& hp, const S* packed) {
   if (hp.n != n_) throw std::runtime_error("CUDA backend: particle count differs from the set-up");
-  const std::vector<S> host = detail::pack<D, S, kColl>(hp);
-  if (!host.empty())
-    check(cudaMemcpyAsync(part_, host.data(), host.size() * sizeof(S), cudaMemcpyHostToDevice, stream_),
+  const std::vector<S> host = packed ? std::vector<S>{} : detail::pack<D, S, kColl>(hp);
+  if (n_ > 0)
+    check(cudaMemcpyAsync(part_, packed ? packed : host.data(), sizeof(S) * Lay::N * n_, cudaMemcpyHostToDevice,
+                          stream_),
           "upload particles");
   if (material_)
     check(cudaMemcpyAsync(material_, material_host_.data(), n_, cudaMemcpyHostToDevice, stream_), "upload materials");

@@ -31,7 +31,9 @@
 #include <thread>
 #include <vector>
 
+#include "cuda_particle_order.cuh"
 #include "cuda_runner_class.cuh"
+#include "cuda_span.cuh"
 #include "run/slab_borders.hpp"
 
 namespace granflow::mpm {
@@ -62,16 +64,6 @@ __global__ void slab_mark_kernel(ParticleView<S> pv, GridDesc<D, S> g, int lo, i
   const bool out = base[0] < lo || base[0] >= hi;
   leave[p] = out;
   if (out) atomicAdd(count, 1u);
-}
-
-// dst slots dst0.. get src slots perm[0..count) (fields and indices).
-template <class S>
-__global__ void slab_gather_kernel(ParticleView<S> src, ParticleView<S> dst, int nfields, const std::uint32_t* perm,
-                                   long count, long dst0, const std::uint32_t* ids_src, std::uint32_t* ids_dst) {
-  const long i = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
-  if (i >= count) return;
-  gather_slot(src, dst, nfields, dst0 + i, perm[i]);
-  ids_dst[dst0 + i] = ids_src[perm[i]];
 }
 
 template <int D, class S, class Model, class Shape, bool kBoundary>
@@ -125,13 +117,10 @@ class CudaSlabRunner final : public Runner {
       : su_(su), sp_whole_(detail::step_params<D, S, Model>(su)), co_(co), opt_(o), whole_(sp_whole_.grid),
         flip_(su.scene.flip) {
     su_.particles = {};  // the slabs get theirs (distribute)
-    if (su.members > 1) throw std::invalid_argument("slabs: an ensemble is not split (--devices spreads its members)");
+    check_split(su, o, K);
     if (su.scene.volumetric_averaging)
       throw std::invalid_argument("slabs: volumetric averaging is not split over GPUs yet");
-    if (o.slabs < 1 || su.nodes[0] < K * o.slabs)
-      throw std::invalid_argument("slabs: " + std::to_string(o.slabs) + " slabs of at least " + std::to_string(K) +
-                                  " node columns each (one stencil) do not fit the grid's " +
-                                  std::to_string(su.nodes[0]) + " columns along x");
+    rule_.opt = o;
     devices_ = o.devices;
     if (devices_.empty())
       for (int s = 0; s < o.slabs; ++s) devices_.push_back(s);
@@ -152,12 +141,7 @@ class CudaSlabRunner final : public Runner {
     }
     report_.slabs = o.slabs;
     rows_ = su.n_nodes / su.nodes[0];
-    Points all;
-    all.n = su.particles.n;
-    all.part = detail::pack<D, S, kColl>(su.particles);
-    all.ids.resize(all.n);
-    std::iota(all.ids.begin(), all.ids.end(), 0u);
-    distribute(std::move(all));
+    distribute(whole_points(su.particles));
   }
 
   void set_stage(int stage, double damping, double flip) override {
@@ -179,12 +163,7 @@ class CudaSlabRunner final : public Runner {
     const auto t0 = Clock::now();
     const int n = static_cast<int>(parts_.size());
     const int cols = su_.nodes[0];
-    Span sp;
-    sp.max_steps = 1;
-    sp.t = t_;
-    sp.dt = dt;
-    sp.adaptive = want_dt_limit;
-    sp.dt_max = std::numeric_limits<double>::infinity();
+    const Span sp = one_step_span(t_, dt, want_dt_limit);
     for (auto& p : parts_) {
       Slab& r = *p->r;
       cudaSetDevice(p->dev);
@@ -293,12 +272,7 @@ class CudaSlabRunner final : public Runner {
   }
   void upload(const HostParticles& in) override {
     detail::check_upload(in, n_total_, D);
-    Points all;
-    all.n = in.n;
-    all.part = detail::pack<D, S, kColl>(in);
-    all.ids.resize(all.n);
-    std::iota(all.ids.begin(), all.ids.end(), 0u);
-    distribute(std::move(all));
+    distribute(whole_points(in));
   }
   PhaseTimes times() const override { return times_; }
   void reset_times() override { times_ = PhaseTimes{}; }
@@ -312,18 +286,11 @@ class CudaSlabRunner final : public Runner {
   }
   void take_forces(BoundaryForces& out, bool keep) override {
     collect_node_impulse();
-    out = forces_;
-    if (keep) return;
-    for (auto& v : forces_.parts) v = ForceSums{};
-    for (auto& v : forces_.boundaries) v = ForceSums{};
-    std::fill(forces_.node_impulse.begin(), forces_.node_impulse.end(), 0.0);
+    take_host_forces(forces_, out, keep);
   }
   void restore_forces(const BoundaryForces& in) override {
-    if (in.parts.size() == forces_.parts.size() && in.boundaries.size() == forces_.boundaries.size() &&
-        in.node_impulse.size() == forces_.node_impulse.size()) {
-      collect_node_impulse();  // clears the slabs' sums
-      forces_ = in;
-    }
+    collect_node_impulse();  // clears the slabs' sums
+    restore_host_forces(forces_, in);
   }
   std::string device() const override {
     std::string d;
@@ -338,11 +305,7 @@ class CudaSlabRunner final : public Runner {
   }
   long particles() const override { return n_total_; }
   long nodes() const override { return su_.n_nodes; }
-  SlabReport slab_report() const override {
-    SlabReport r = report_;
-    r.borders = borders_;
-    return r;
-  }
+  SlabReport slab_report() const override { return report_; }
 
  private:
   static void enable_peers(int a, int b) {
@@ -404,13 +367,15 @@ class CudaSlabRunner final : public Runner {
     }
   }
 
-  // Runs f(j0, j1) over [0, n) in chunks on all cores (the host side of gathers).
-  template <class F>
-  static void parallel_chunks(long n, F&& f) {
-    const long t = std::max(1L, std::min<long>(std::thread::hardware_concurrency(), (n + 65535) / 65536));
-    std::vector<std::thread> pool;
-    for (long k = 0; k < t; ++k) pool.emplace_back([&, k] { f(n * k / t, n * (k + 1) / t); });
-    for (auto& th : pool) th.join();
+  // All points of a state in the scene's order, packed on all cores.
+  static Points whole_points(const HostParticles& hp) {
+    Points all;
+    all.n = hp.n;
+    all.part.resize(static_cast<size_t>(Lay::N) * all.n);
+    detail::parallel_chunks(all.n, [&](long i0, long i1) { detail::pack_range<D, S, kColl>(hp, all.part.data(), i0, i1); });
+    all.ids.resize(all.n);
+    std::iota(all.ids.begin(), all.ids.end(), 0u);
+    return all;
   }
 
   // The points of the slabs in the scene's order. light: positions, velocities and sqrt(T)
@@ -441,7 +406,7 @@ class CudaSlabRunner final : public Runner {
       check(cudaStreamSynchronize(r.stream_), "slab download");
       S* out = all.part.data();
       const long N = all.n;
-      parallel_chunks(n, [&](long j0, long j1) {
+      detail::parallel_chunks(n, [&](long j0, long j1) {
         for (long k = 0; k < nf; ++k)
           for (long j = j0; j < j1; ++j) out[fields[k] * N + ids[j]] = buf[k * n + j];
       });
@@ -478,14 +443,13 @@ class CudaSlabRunner final : public Runner {
     n_total_ = all.n;
     const int n = opt_.slabs, cols = su_.nodes[0];
     const ParticleView<S> pv{all.part.data(), all.n};
-    std::vector<long> counts(cols, 0);
     std::vector<int> col(all.n);
-    for (long p = 0; p < all.n; ++p) ++counts[col[p] = column_of(pv, p)];
-    const std::vector<int> b = balanced_borders(counts, n, K);
-    if (!borders_.empty() && b != borders_) ++report_.repartitions;
-    borders_ = b;
-    std::vector<std::vector<long>> which(n);
-    for (long p = 0; p < all.n; ++p) which[slab_of_column(borders_, col[p])].push_back(p);
+    detail::parallel_chunks(all.n, [&](long p0, long p1) {
+      for (long p = p0; p < p1; ++p) col[p] = column_of(pv, p);
+    });
+    const std::vector<std::vector<long>> which = assign_slabs(col, cols, n, K, report_);
+    borders_ = report_.borders;
+    const std::vector<int>& b = borders_;
     for (int s = 0; s < n; ++s)
       if (which[s].empty())
         throw std::runtime_error("slabs: slab " + std::to_string(s) + " (node columns " + std::to_string(b[s]) +
@@ -519,12 +483,17 @@ class CudaSlabRunner final : public Runner {
     Points mine;
     mine.n = static_cast<long>(which.size());
     mine.part.resize(static_cast<size_t>(Lay::N) * mine.n);
+    mine.ids.resize(mine.n);
     const ParticleView<S> src{const_cast<S*>(all.part.data()), all.n}, dst{mine.part.data(), mine.n};
-    for (long j = 0; j < mine.n; ++j) {
-      gather_slot(src, dst, Lay::N, j, which[j]);
-      mine.ids.push_back(all.ids[which[j]]);
-    }
-    detail::unpack<D, S, kColl>(mine.part, mine.n, su.particles);
+    detail::parallel_chunks(mine.n, [&](long j0, long j1) {
+      for (long j = j0; j < j1; ++j) {
+        gather_slot(src, dst, Lay::N, j, which[j]);
+        mine.ids[j] = all.ids[which[j]];
+      }
+    });
+    su.particles = HostParticles{};  // the runner takes the packed state (SlabInit::packed)
+    su.particles.n = mine.n;
+    su.particles.dim = D;
     su.tracked.clear();
     su.point_body.clear();
     slice_node_lists(su, *p);
@@ -533,6 +502,7 @@ class CudaSlabRunner final : public Runner {
     SlabInit init;
     init.capacity = std::max(mine.n + mine.n / 8, static_cast<long>(1.3 * opt_.imbalance * mean)) + 1024;
     init.ids = &mine.ids;
+    init.packed = mine.part.data();
     p->r = std::make_unique<Slab>(su, co_, &init);
     p->r->sp_.mass_eps = sp_whole_.mass_eps;  // the whole scene's, not the slab's lightest point's
     p->r->sp_.mass_floor = sp_whole_.mass_floor;
@@ -600,7 +570,7 @@ class CudaSlabRunner final : public Runner {
         p.out = device_alloc<S>(static_cast<size_t>(Lay::N) * p.out_cap);
         p.out_ids = device_alloc<std::uint32_t>(p.out_cap);
       }
-      slab_gather_kernel<S><<<blocks_for(m, kAuxBlock), kAuxBlock, 0, r.stream_>>>(
+      gather_kernel<S><<<blocks_for(m, kAuxBlock), kAuxBlock, 0, r.stream_>>>(
           r.part_view(), ParticleView<S>{p.out, m}, Lay::N, p.perm, m, 0, r.ids_, p.out_ids);
       std::vector<S> part(static_cast<size_t>(Lay::N) * m);
       std::vector<std::uint32_t> ids(m);
@@ -625,7 +595,7 @@ class CudaSlabRunner final : public Runner {
     if (!fits) {  // a slab would overflow or empty: re-partition (the leaving points are still in their slots)
       distribute(gather());
       ++report_.checks;
-      since_ = 0;
+      rule_.since = 0;
       return;
     }
     for (int s = 0; s < n; ++s) {
@@ -654,7 +624,7 @@ class CudaSlabRunner final : public Runner {
     const long stay = r.n_ - leaving, in = static_cast<long>(arriving.size()), n1 = stay + in;
     const ParticleView<S> dst{r.alt_, n1};
     if (stay > 0)
-      slab_gather_kernel<S><<<blocks_for(stay, kAuxBlock), kAuxBlock, 0, r.stream_>>>(
+      gather_kernel<S><<<blocks_for(stay, kAuxBlock), kAuxBlock, 0, r.stream_>>>(
           r.part_view(), dst, Lay::N, p.perm + leaving, stay, 0, r.ids_, r.ids_alt_);
     if (in > 0) {
       std::vector<S> part(static_cast<size_t>(Lay::N) * in);
@@ -690,17 +660,9 @@ class CudaSlabRunner final : public Runner {
   }
 
   void rebalance_if_needed() {
-    ++steps_;
-    ++since_;
     long most = 0;
     for (const auto& p : parts_) most = std::max(most, p->r->n_);
-    const double imbalance = n_total_ > 0 ? double(most) * double(parts_.size()) / double(n_total_) : 1.0;
-    report_.max_imbalance = std::max(report_.max_imbalance, imbalance);
-    const bool every = opt_.every > 0 && steps_ % opt_.every == 0;
-    if (!every && !(imbalance > opt_.imbalance && since_ >= opt_.min_steps)) return;
-    ++report_.checks;
-    since_ = 0;
-    distribute(gather());
+    if (rule_.after_step(most, n_total_, static_cast<int>(parts_.size()), report_)) distribute(gather());
   }
 
   SceneSetup su_;  // without its particles
@@ -715,7 +677,7 @@ class CudaSlabRunner final : public Runner {
   long rows_ = 0, n_total_ = 0;
   int stage_ = 0;
   double damping_ = 0, flip_ = 0, t_ = 0;
-  long steps_ = 0, since_ = 0;
+  Repartitioning rule_;
   BoundaryForces forces_;
   UpdateStats retired_stats_;
   PhaseTimes times_;

@@ -17,16 +17,29 @@ bool little_endian() {
   return b == 1;
 }
 
+// Base64 of n bytes; the whole groups of three on all cores (a frame of 8e6 points is 1.5 GB).
 std::string base64(const unsigned char* p, size_t n) {
   static const char* tab = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((n + 2) / 3 * 4);
-  for (size_t i = 0; i < n; i += 3) {
-    const unsigned v = (unsigned(p[i]) << 16) | (i + 1 < n ? unsigned(p[i + 1]) << 8 : 0u) | (i + 2 < n ? p[i + 2] : 0u);
-    out += tab[(v >> 18) & 63];
-    out += tab[(v >> 12) & 63];
-    out += i + 1 < n ? tab[(v >> 6) & 63] : '=';
-    out += i + 2 < n ? tab[v & 63] : '=';
+  std::string out((n + 2) / 3 * 4, '=');
+  const long groups = static_cast<long>(n / 3);
+  char* o = out.data();
+#pragma omp parallel for schedule(static) if (groups > (1L << 16))
+  for (long g = 0; g < groups; ++g) {
+    const unsigned char* q = p + 3 * g;
+    const unsigned v = (unsigned(q[0]) << 16) | (unsigned(q[1]) << 8) | unsigned(q[2]);
+    char* w = o + 4 * g;
+    w[0] = tab[(v >> 18) & 63];
+    w[1] = tab[(v >> 12) & 63];
+    w[2] = tab[(v >> 6) & 63];
+    w[3] = tab[v & 63];
+  }
+  if (const size_t rest = n - 3 * static_cast<size_t>(groups)) {  // 1 or 2 bytes: '=' padding
+    const unsigned char* q = p + 3 * groups;
+    const unsigned v = (unsigned(q[0]) << 16) | (rest > 1 ? unsigned(q[1]) << 8 : 0u);
+    char* w = o + 4 * groups;
+    w[0] = tab[(v >> 18) & 63];
+    w[1] = tab[(v >> 12) & 63];
+    if (rest > 1) w[2] = tab[(v >> 6) & 63];
   }
   return out;
 }

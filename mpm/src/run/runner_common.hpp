@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <thread>
 #include <vector>
 
 #include <granflow/mpm/kernels.hpp>
@@ -93,14 +94,28 @@ std::vector<MemberValues<typename Model::Params, S>> member_values(const SceneSe
   return out;
 }
 
-// HostParticles -> field-major buffer of ParticleLayout<D, kColl>.
+// Runs f(i0, i1) over [0, n) in chunks on all cores (std::thread: the CUDA back end's host code
+// is built without OpenMP); one chunk below 65,536 items.
+template <class F>
+void parallel_chunks(long n, F&& f) {
+  const long t = std::max(1L, std::min<long>(std::thread::hardware_concurrency(), (n + 65535) / 65536));
+  if (t == 1) {
+    f(0L, n);
+    return;
+  }
+  std::vector<std::thread> pool;
+  for (long k = 0; k < t; ++k) pool.emplace_back([&, k] { f(n * k / t, n * (k + 1) / t); });
+  for (auto& th : pool) th.join();
+}
+
+// Points [i0, i1) of HostParticles into a field-major buffer of ParticleLayout<D, kColl> for all
+// hp.n points (ranges may be packed on several threads).
 template <int D, class S, bool kColl>
-std::vector<S> pack(const HostParticles& hp) {
+void pack_range(const HostParticles& hp, S* a, long i0, long i1) {
   using Lay = ParticleLayout<D, kColl>;
   const long n = hp.n;
-  std::vector<S> a(static_cast<size_t>(Lay::N) * n);
-  ParticleView<S> pv{a.data(), n};
-  for (long i = 0; i < n; ++i) {
+  ParticleView<S> pv{a, n};
+  for (long i = i0; i < i1; ++i) {
     for (int d = 0; d < D; ++d) {
       pv.f(Lay::X + d, i) = S(hp.x[d * n + i]);
       pv.f(Lay::V + d, i) = S(hp.v[d * n + i]);
@@ -115,6 +130,13 @@ std::vector<S> pack(const HostParticles& hp) {
     pv.f(Lay::E, i) = S(hp.e[i]);
     if constexpr (kColl) pv.f(Lay::SQT, i) = S(hp.s[i]);
   }
+}
+
+// HostParticles -> field-major buffer of ParticleLayout<D, kColl>.
+template <int D, class S, bool kColl>
+std::vector<S> pack(const HostParticles& hp) {
+  std::vector<S> a(static_cast<size_t>(ParticleLayout<D, kColl>::N) * hp.n);
+  pack_range<D, S, kColl>(hp, a.data(), 0, hp.n);
   return a;
 }
 
@@ -198,21 +220,23 @@ void make_frame(const std::vector<S>& a, long n, const typename Model::Params& m
   }
   for (auto* f : {&fr.p, &fr.q, &fr.eps_pd, &fr.eta_c, &fr.K_col, &fr.e, &fr.sxx, &fr.syy, &fr.sxy})
     f->assign(n, 0.0);
-  for (long i = 0; i < n; ++i) {
-    Diagnostics<MS> dg;
-    Mat3<S> sig;
-    point(i, dg, sig);
-    fr.p[i] = mean_pressure(sig);
-    fr.q[i] = deviatoric_q(sig);
-    fr.eps_pd[i] = dg.eps_pd;
-    fr.T[i] = dg.T;
-    fr.eta_c[i] = dg.eta_c;
-    fr.K_col[i] = dg.K_col;
-    fr.e[i] = dg.e;
-    fr.sxx[i] = sig(0, 0);
-    fr.syy[i] = sig(1, 1);
-    fr.sxy[i] = sig(0, 1);
-  }
+  parallel_chunks(n, [&](long i0, long i1) {
+    for (long i = i0; i < i1; ++i) {
+      Diagnostics<MS> dg;
+      Mat3<S> sig;
+      point(i, dg, sig);
+      fr.p[i] = mean_pressure(sig);
+      fr.q[i] = deviatoric_q(sig);
+      fr.eps_pd[i] = dg.eps_pd;
+      fr.T[i] = dg.T;
+      fr.eta_c[i] = dg.eta_c;
+      fr.K_col[i] = dg.K_col;
+      fr.e[i] = dg.e;
+      fr.sxx[i] = sig(0, 0);
+      fr.syy[i] = sig(1, 1);
+      fr.sxy[i] = sig(0, 1);
+    }
+  });
 }
 
 // Dispatch of the compile-time choices a scene selects. F is a template functor
