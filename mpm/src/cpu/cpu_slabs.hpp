@@ -66,7 +66,7 @@ class SlabRunner final : public Runner {
       if (s > 0) {
         seeded = slabs_[s - 1]->window().whi;
         const auto tx = Clock::now();
-        copy_columns(*slabs_[s - 1], *slabs_[s], borders_[s], seeded, 0, 1 + 2 * D);
+        copy_columns(*slabs_[s - 1], *slabs_[s], borders()[s], seeded, 0, 1 + 2 * D);
         times_.exchange += seconds_since(tx);
       }
       slabs_[s]->p2g_phase(seeded);
@@ -82,7 +82,7 @@ class SlabRunner final : public Runner {
     times_.grid += seconds_since(t0);
     t0 = Clock::now();
     for (int s = 0; s + 1 < n; ++s)
-      copy_columns(*slabs_[s + 1], *slabs_[s], borders_[s + 1], slabs_[s]->window().whi, 0, G::N);
+      copy_columns(*slabs_[s + 1], *slabs_[s], borders()[s + 1], slabs_[s]->window().whi, 0, G::N);
     times_.exchange += seconds_since(t0);
     t0 = Clock::now();
     StepResult r;
@@ -138,6 +138,8 @@ class SlabRunner final : public Runner {
   SlabReport slab_report() const override { return report_; }
 
  private:
+  // node columns: slab s owns [borders()[s], borders()[s + 1]) (kept in the report)
+  const std::vector<int>& borders() const { return report_.borders; }
   SlabPoints<S> whole_points(std::vector<S> part) const {
     SlabPoints<S> all;
     all.n = su_.particles.n;
@@ -148,7 +150,7 @@ class SlabRunner final : public Runner {
     return all;
   }
 
-  int slab_of(int column) const { return slab_of_column(borders_, column); }
+  int slab_of(int column) const { return slab_of_column(borders(), column); }
 
   // The slabs made anew from all points (ids 0..n-1 in order); the borders balanced first.
   void distribute(SlabPoints<S>&& all) {
@@ -159,14 +161,13 @@ class SlabRunner final : public Runner {
     for (long p = 0; p < all.n; ++p)
       col[p] = std::clamp(base_column<D, S, Shape, Model::kCollisional>(pv, p, whole_), 0, cols - 1);
     const std::vector<std::vector<long>> which = assign_slabs(col, cols, n, K, report_);
-    borders_ = report_.borders;
     for (const auto& s : slabs_) retired_stats_ = retired_stats_ + s->update_stats();
     slabs_.clear();
     report_.halo_nodes = 0;
     const long rest = su_.n_nodes / cols;
     for (int s = 0; s < n; ++s) {
       SlabPoints<S> pts = subset(all, which[s]);
-      const SlabWindow w{borders_[s], borders_[s + 1], std::min(borders_[s + 1] + K - 1, cols)};
+      const SlabWindow w{borders()[s], borders()[s + 1], std::min(borders()[s + 1] + K - 1, cols)};
       report_.halo_nodes += 2 * static_cast<long>(w.whi - w.hi) * rest;
       slabs_.push_back(std::make_unique<Slab>(su_, &pts, &w));
       slabs_.back()->set_stage(stage_, damping_, flip_);
@@ -246,7 +247,6 @@ class SlabRunner final : public Runner {
   SlabOptions opt_;
   GridDesc<D, S> whole_;
   std::vector<std::unique_ptr<Slab>> slabs_;
-  std::vector<int> borders_;
   int stage_ = 0;
   double damping_ = 0, flip_ = 0, t_ = 0;
   Repartitioning rule_;

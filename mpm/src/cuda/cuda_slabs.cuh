@@ -308,6 +308,8 @@ class CudaSlabRunner final : public Runner {
   SlabReport slab_report() const override { return report_; }
 
  private:
+  // node columns: slab s owns [borders()[s], borders()[s + 1]) (kept in the report)
+  const std::vector<int>& borders() const { return report_.borders; }
   static void enable_peers(int a, int b) {
     if (a == b) return;
     for (auto [x, y] : {std::pair{a, b}, std::pair{b, a}}) {
@@ -448,8 +450,7 @@ class CudaSlabRunner final : public Runner {
       for (long p = p0; p < p1; ++p) col[p] = column_of(pv, p);
     });
     const std::vector<std::vector<long>> which = assign_slabs(col, cols, n, K, report_);
-    borders_ = report_.borders;
-    const std::vector<int>& b = borders_;
+    const std::vector<int>& b = borders();
     for (int s = 0; s < n; ++s)
       if (which[s].empty())
         throw std::runtime_error("slabs: slab " + std::to_string(s) + " (node columns " + std::to_string(b[s]) +
@@ -476,8 +477,8 @@ class CudaSlabRunner final : public Runner {
   std::unique_ptr<Part> make_part(int s, const Points& all, const std::vector<long>& which) {
     auto p = std::make_unique<Part>();
     p->dev = devices_[s];
-    p->lo = borders_[s];
-    p->hi = borders_[s + 1];
+    p->lo = borders()[s];
+    p->hi = borders()[s + 1];
     check(cudaSetDevice(p->dev), "cudaSetDevice");
     SceneSetup su = su_;
     Points mine;
@@ -585,7 +586,7 @@ class CudaSlabRunner final : public Runner {
     // each moving point to the slab that owns its column, in the scene's order
     std::vector<std::vector<long>> to(n);
     const ParticleView<S> mv{moving.part.data(), moving.n};
-    for (long j = 0; j < moving.n; ++j) to[slab_of_column(borders_, column_of(mv, j))].push_back(j);
+    for (long j = 0; j < moving.n; ++j) to[slab_of_column(borders(), column_of(mv, j))].push_back(j);
     bool fits = true;
     for (int s = 0; s < n; ++s) {
       std::sort(to[s].begin(), to[s].end(), [&](long a, long b) { return moving.ids[a] < moving.ids[b]; });
@@ -673,7 +674,6 @@ class CudaSlabRunner final : public Runner {
   std::vector<int> devices_;
   std::vector<std::unique_ptr<Part>> parts_;
   std::vector<std::vector<ForceSums>> step_host_;  // per slab: the last step's part sums
-  std::vector<int> borders_;
   long rows_ = 0, n_total_ = 0;
   int stage_ = 0;
   double damping_ = 0, flip_ = 0, t_ = 0;
