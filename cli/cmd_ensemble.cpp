@@ -237,6 +237,7 @@ void finish(const EnsembleCmd& o, const mpm::EnsembleDesign& design, const mpm::
   if (s.times.span_steps > 0)  // CUDA: kernel time of the spans (first device), the rest is the host's
     std::printf("device time of spans: %.3f s (%.2f us per step)\n", s.times.device,
                 1e6 * s.times.device / s.times.span_steps);
+  print_plastic_returns(s.stats);
   for (size_t k = 0; k < s.members.size(); ++k)
     if (!s.members[k].ok) std::printf("member %zu failed: %s\n", k, s.members[k].message.c_str());
   std::printf("output: %s (summary.csv, member_NNNN/{runout,tracked,profile_final}.csv)\n", out.c_str());
@@ -477,6 +478,7 @@ void run_ensemble_cmd(const EnsembleCmd& o) {
     s.wall_s = std::max(s.wall_s, parts[g].wall_s);
     s.files_s = std::max(s.files_s, parts[g].files_s);
     s.interrupted = s.interrupted ? s.interrupted : parts[g].interrupted;
+    s.stats = s.stats + parts[g].stats;
   }
   for (const auto& su : group_su) {
     particles += su.particles.n;

@@ -215,33 +215,6 @@ void print_step_times(const mpm::RunSummary& s, long particles, const std::strin
     std::printf("plastic returns (second G2P pass): %.1f %% of the updates\n", 100.0 * t.deferred_share(particles));
 }
 
-// The plastic returns' cost (UpdateStats): share, evaluations (mean and quantiles), halvings,
-// hand-overs, and how the slow points sit in 32-point groups.
-void print_plastic_returns(const mpm::UpdateStats& u) {
-  if (u.plastic == 0) return;
-  const double np = double(u.plastic);
-  double sum = 0;
-  for (int e = 0; e < mpm::kCostBins; ++e) sum += double(e) * u.plastic_evaluations[e];
-  auto quantile = [&](double q) {
-    long acc = 0;
-    for (int e = 0; e < mpm::kCostBins; ++e)
-      if ((acc += u.plastic_evaluations[e]) >= q * np) return e;
-    return mpm::kCostBins - 1;
-  };
-  long slow_groups = 0, slow_points = 0, groups = 0;
-  for (int k = 0; k < 33; ++k) {
-    groups += u.slow_in_group[k];
-    if (k > 0) slow_groups += u.slow_in_group[k], slow_points += k * u.slow_in_group[k];
-  }
-  std::printf("plastic returns: %.2f %% of the updates; residual evaluations mean %.2f, median %d, 90 %% %d, "
-              "99 %% %d (%d+ counts as %d); halving trials %.3f per return; floored %.3f %%, bracketed %.3f %%; "
-              "32-point groups with a slow point (>= %d evaluations) %.2f %%, holding %.2f slow points each\n",
-              100 * np / double(u.updates), sum / np, quantile(0.5), quantile(0.9), quantile(0.99),
-              mpm::kCostBins - 1, mpm::kCostBins - 1, u.halvings / np, 100 * u.floored / np,
-              100 * u.bracketed / np, mpm::kSlowEvaluations, groups ? 100.0 * slow_groups / groups : 0.0,
-              slow_groups ? double(slow_points) / slow_groups : 0.0);
-}
-
 struct MpmOptions {
   std::string scene, out, backend = "cpu", png_fields = "p,T,eps_pd", precision;
   bool force = false, no_png = false, quiet = false, restart = false;
@@ -544,6 +517,31 @@ void register_bench_mpm(CLI::App& bench) {
       ->check(CLI::PositiveNumber);
   o->cuda.add(cmd);
   cmd->callback([o] { bench_mpm(*o); });
+}
+
+void print_plastic_returns(const mpm::UpdateStats& u) {
+  if (u.plastic == 0) return;
+  const double np = double(u.plastic);
+  double sum = 0;
+  for (int e = 0; e < mpm::kCostBins; ++e) sum += double(e) * u.plastic_evaluations[e];
+  auto quantile = [&](double q) {
+    long acc = 0;
+    for (int e = 0; e < mpm::kCostBins; ++e)
+      if ((acc += u.plastic_evaluations[e]) >= q * np) return e;
+    return mpm::kCostBins - 1;
+  };
+  long slow_groups = 0, slow_points = 0, groups = 0;
+  for (int k = 0; k < 33; ++k) {
+    groups += u.slow_in_group[k];
+    if (k > 0) slow_groups += u.slow_in_group[k], slow_points += k * u.slow_in_group[k];
+  }
+  std::printf("plastic returns: %.2f %% of the updates; residual evaluations mean %.2f, median %d, 90 %% %d, "
+              "99 %% %d (%d+ counts as %d); halving trials %.3f per return; floored %.3f %%, bracketed %.3f %%; "
+              "32-point groups with a slow point (>= %d evaluations) %.2f %%, holding %.2f slow points each\n",
+              100 * np / double(u.updates), sum / np, quantile(0.5), quantile(0.9), quantile(0.99),
+              mpm::kCostBins - 1, mpm::kCostBins - 1, u.halvings / np, 100 * u.floored / np,
+              100 * u.bracketed / np, mpm::kSlowEvaluations, groups ? 100.0 * slow_groups / groups : 0.0,
+              slow_groups ? double(slow_points) / slow_groups : 0.0);
 }
 
 }  // namespace granflow::cli

@@ -62,6 +62,10 @@ std::unique_ptr<mpm::Runner> make_runner(const mpm::SceneSetup& su, const std::s
 // anything is set up or written.
 void require_backend(const std::string& backend);
 
+// The "plastic returns" line of an UpdateStats (nothing when no update was plastic): share,
+// residual evaluations, halvings, hand-overs and how the slow points sit in 32-point groups.
+void print_plastic_returns(const mpm::UpdateStats& u);
+
 // scripts/NAME from the working directory or beside the installed data; "" when not found.
 std::string locate_script(const std::string& name);
 

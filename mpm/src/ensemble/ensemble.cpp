@@ -290,6 +290,7 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
   sum.t_end = t;
   sum.wall_s = elapsed();
   sum.times = runner.times();
+  sum.stats = runner.update_stats();
   // The members' files on all cores (formatting 256 members' series took 4-5 s on one): the
   // error of the lowest failing member is the one reported, as one after the other.
   const auto files0 = Clock::now();

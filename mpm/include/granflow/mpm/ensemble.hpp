@@ -54,6 +54,7 @@ struct EnsembleSummary {
   double files_s = 0;  // the members' files, written after the run (not in wall_s)
   std::string device;
   PhaseTimes times;
+  UpdateStats stats;  // all members' updates (CUDA: with --update-stats on)
   int interrupted = 0;
 };
 
