@@ -398,14 +398,43 @@ TEST(Frictional, ReturnMapEndsOnTheSurfaceAndConvergesToTheRateSolution) {
   EXPECT_LT(e3, 0.1);  // 200 increments of 1e-4 through the steep pressure dip: 6 %
 }
 
+TEST(Frictional, ConeRatioIsTheLodeFactorTimesTheStressRatio) {
+  // cone_ratio (the return map's and yield_state's g M with three divisions) against the
+  // separate functions of sin(phi), and its derivatives against central differences.
+  for (double tan_phi : {0.2, 0.36, 0.7, 1.5}) {
+    const double sn = sin_of_tan(tan_phi);
+    for (double x : {-1.0, -0.4, 0.0, 0.8, 1.0}) {
+      const ConeRatio<double> c = cone_ratio<SMC>(x, tan_phi);
+      const LodeFactor<double> g = lode_factor<SMC>(x, sn);
+      const double M = stress_ratio_of_angle(sn);
+      EXPECT_NEAR(c.gM, g.g * M, 1e-14 * M) << tan_phi << " " << x;
+      EXPECT_NEAR(c.dgM_dx, g.dg_dx * M, 1e-13 * M) << tan_phi << " " << x;
+      const double h = 1e-6 * tan_phi;
+      const double fd = (cone_ratio<SMC>(x, tan_phi + h).gM - cone_ratio<SMC>(x, tan_phi - h).gM) / (2 * h);
+      EXPECT_NEAR(c.dgM_dtan, fd, 1e-7 * std::fabs(fd)) << tan_phi << " " << x;
+      if (std::fabs(x) < 1) {
+        const double hx = 1e-6;
+        const double fx = (cone_ratio<SMC>(x + hx, tan_phi).gM - cone_ratio<SMC>(x - hx, tan_phi).gM) / (2 * hx);
+        EXPECT_NEAR(c.dgM_dx, fx, 1e-7 * M) << tan_phi << " " << x;
+      }
+    }
+    const ConeRatio<double> circ = cone_ratio<LodeShape::Circular>(0.3, tan_phi);
+    EXPECT_NEAR(circ.gM, stress_ratio_of_angle(sn), 1e-14);
+    EXPECT_EQ(circ.dgM_dx, 0.0);
+    const double h = 1e-6 * tan_phi;
+    EXPECT_NEAR(circ.dgM_dtan,
+                (stress_ratio_of_angle(sin_of_tan(tan_phi + h)) - stress_ratio_of_angle(sin_of_tan(tan_phi - h))) / (2 * h),
+                1e-7 * circ.dgM_dtan);
+  }
+}
+
 TEST(Frictional, ReturnMapJacobianMatchesCentralDifferences) {
   // The Newton iteration of the return map uses the analytic Jacobian of its residual in
   // (p, dLambda); central differences of the residual itself are the independent reference.
   for (const auto& m : {test::table1(), test::table3_collapse().f}) {
     for (double e1 : {0.70, 0.85, 0.97}) {
       for (double x : {-0.9, 0.0, 0.7}) {
-        const detail::ReturnMapResidual<SMC, double> res{m,    80e3, 60e3, x, 4e7, 3e7, 0.02, e1, 80e3 + m.p_min,
-                                                         std::tan(m.phi_c), std::log(m.e_ref / e1)};
+        const detail::ReturnMapResidual<SMC, double> res{m, 80e3, 60e3, x, 4e7, 3e7, 0.02, e1};
         for (double p : {50.0, 5e3, 70e3}) {
           for (double dL : {0.0, 1e-4, 1e-3}) {
             const auto v = res(p, dL);

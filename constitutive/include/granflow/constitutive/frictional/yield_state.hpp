@@ -71,41 +71,36 @@ GF_HDI YieldState<S> yield_state(const FrictionalParams<S>& mp, const Mat3In<S>&
   const StressInvariants<S> inv = stress_invariants(sigma, direction_hint);
   const S pe = inv.p > mp.p_min ? inv.p : mp.p_min;
   y.C = elastic_moduli(mp, inv.p, e);
-  y.r = inv.q / pe;
+  const S inv_pe = S(1) / pe;
+  y.r = inv.q * inv_pe;
 
   // Eqs. (16)-(18): state-dependent peak and phase-transformation angles. One power of p and
   // the logarithm of e_c / e serve e_c, its p-derivative and both angles.
   const S xpow = std::pow(pe / mp.p_at, mp.xi);
   y.e_c = mp.e_ref * std::exp(-mp.lambda_c * xpow);
-  const S dec_dp = inv.p > mp.p_min ? -y.e_c * mp.lambda_c * mp.xi * xpow / inv.p : S(0);
+  const S dec_dp = inv.p > mp.p_min ? -y.e_c * mp.lambda_c * mp.xi * xpow * inv_pe : S(0);
   const S tan_c = std::tan(mp.phi_c);
   const S log_ratio = std::log(mp.e_ref / e) - mp.lambda_c * xpow;
   const S tan_p = std::exp(mp.n_p * log_ratio) * tan_c;
   const S tan_pt = std::exp(-mp.n_d * log_ratio) * tan_c;
-  const S sin_p = sin_of_tan(tan_p), sin_pt = sin_of_tan(tan_pt);
-  const S M_p = stress_ratio_of_angle(sin_p);
-  const S M_pt = stress_ratio_of_angle(sin_pt);
-  const LodeFactor<S> gp = lode_factor<L>(inv.x, sin_p);
-  const LodeFactor<S> gpt = lode_factor<L>(inv.x, sin_pt);
+  const ConeRatio<S> cp = cone_ratio<L>(inv.x, tan_p), cpt = cone_ratio<L>(inv.x, tan_pt);
 
-  y.Gm = gp.g * M_p;
-  y.h = eps_pd / (mp.k_p + eps_pd);
-  y.dh = mp.k_p / ((mp.k_p + eps_pd) * (mp.k_p + eps_pd));
+  y.Gm = cp.gM;
+  const S inv_kp_eps = S(1) / (mp.k_p + eps_pd);
+  y.h = eps_pd * inv_kp_eps;
+  y.dh = mp.k_p * inv_kp_eps * inv_kp_eps;
   y.f = y.r - y.Gm * y.h;
-  y.Dg = mp.A_d * (gpt.g * M_pt - y.r);
+  y.Dg = mp.A_d * (cpt.gM - y.r);
 
-  // d Gm / d sin(phi_p) and the chain through tan(phi_p)(e, e_c(p)).
-  const S dM_ds = S(18) / ((S(3) - sin_p) * (S(3) - sin_p));
-  const S dGm_ds = gp.g * dM_ds + M_p * gp.dg_dsin;
-  const S dGm_dtan = dGm_ds * dsin_dtan(tan_p);
+  // The chain of Gm through tan(phi_p)(e, e_c(p)).
   const S dtan_dec = mp.n_p * tan_p / y.e_c;
-  const S dGm_dp = dGm_dtan * dtan_dec * dec_dp;
-  y.dGm_de = dGm_dtan * (-mp.n_p * tan_p / e);
+  const S dGm_dp = cp.dgM_dtan * dtan_dec * dec_dp;
+  y.dGm_de = cp.dgM_dtan * (-mp.n_p * tan_p / e);
 
   // n = d r / d sigma - h d Gm / d sigma;  d p / d sigma = -I/3, d q / d sigma = 3/2 s_hat.
   const Mat3<S> I = identity3<S>();
-  const Mat3<S> dr = (S(1.5) / pe) * inv.s_hat + (inv.p > mp.p_min ? y.r / (S(3) * pe) : S(0)) * I;
-  const Mat3<S> dGm = M_p * gp.dg_dx * dsin3theta_dsigma(inv.s, inv.J2) - (dGm_dp / S(3)) * I;
+  const Mat3<S> dr = (S(1.5) * inv_pe) * inv.s_hat + (inv.p > mp.p_min ? y.r * inv_pe / S(3) : S(0)) * I;
+  const Mat3<S> dGm = cp.dgM_dx * dsin3theta_dsigma(inv.s, inv.J2) - (dGm_dp / S(3)) * I;
   y.n = dr - y.h * dGm;
   // Flow rule (15): d eps^p = dLambda [-(1/3) Dg I + 3/2 s_hat] (radial deviatoric flow, A3).
   y.m = (-y.Dg / S(3)) * I + S(1.5) * inv.s_hat;
