@@ -62,6 +62,7 @@ class CudaRunner final : public Runner {
   static constexpr bool kTerrain = kBoundary && (!kMembers || D == 3);
   static constexpr int kElastic = elastic_min_blocks<typename Model::Scalar>(false);
   static constexpr int kElasticCap = elastic_min_blocks<typename Model::Scalar>(true);
+  static constexpr int kPlastic = plastic_min_blocks<typename Model::Scalar>();
 
  public:
   CudaRunner(const SceneSetup& su, const CudaOptions& opt, const SlabInit* slab = nullptr);

@@ -494,7 +494,7 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::preload() const
                      reinterpret_cast<const void*>(constitutive_kernel<D, S, Model, 128, 3, kMembers>),
                      reinterpret_cast<const void*>(g2p_elastic_kernel<D, S, Model, Shape, kElastic, kMembers>),
                      reinterpret_cast<const void*>(g2p_elastic_kernel<D, S, Model, Shape, kElasticCap, kMembers>),
-                     reinterpret_cast<const void*>(g2p_plastic_kernel<D, S, Model, 256, 1, kMembers>)};
+                     reinterpret_cast<const void*>(g2p_plastic_kernel<D, S, Model, kSplitBlock, kPlastic, kMembers>)};
   for (const void* f : k) check(cudaFuncGetAttributes(&a, f), "load kernels");
   if constexpr (kTerrain)
     if (n_terrain_ > 0) check(cudaFuncGetAttributes(&a, reinterpret_cast<const void*>(terrain_kernel<D, S>)), "load kernels");
@@ -674,7 +674,7 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_g2p() {
     else
       g2p_elastic_kernel<D, S, Model, Shape, kElastic, kMembers>
           <<<eb, kSplitBlock, 0, stream_>>>(pv, gv, sp_, ctl_, ids_, info_, deferred_, n_deferred_);
-    g2p_plastic_kernel<D, S, Model, 256, 1, kMembers><<<cb, opt_.g2p_block, 0, stream_>>>(
+    g2p_plastic_kernel<D, S, Model, kSplitBlock, kPlastic, kMembers><<<eb, kSplitBlock, 0, stream_>>>(
         pv, sp_, ctl_, ids_, info_, deferred_, n_deferred_);
   } else if (!sp_.vol_avg) {
     if (opt_.g2p_reg_cap)
@@ -730,8 +730,8 @@ inline std::string CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::config()
                        kSplitBlock);
     else
       s += kernel_info("G2P + elastic part", g2p_elastic_kernel<D, S, Model, Shape, kElastic, kMembers>, kSplitBlock);
-    s += kernel_info("plastic return of the deferred points", g2p_plastic_kernel<D, S, Model, 256, 1, kMembers>,
-                     opt_.g2p_block);
+    s += kernel_info("plastic return of the deferred points", g2p_plastic_kernel<D, S, Model, kSplitBlock, kPlastic, kMembers>,
+                     kSplitBlock);
   } else if (!sp_.vol_avg) {
     if (opt_.g2p_reg_cap)
       s += kernel_info("G2P + constitutive", g2p_kernel<D, S, Model, Shape, 128, 3, kMembers>, opt_.g2p_block);
