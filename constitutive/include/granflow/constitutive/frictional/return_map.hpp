@@ -76,9 +76,10 @@ struct ReturnMapResidual {
     // R1 cannot be resolved below the rounding of its terms: Dg is a difference of two ratios
     // of order one, times K dL, which at low pressure is many times p. In float a return that
     // had converged in f kept |R1| at 1-5 times kVolResidual, no step improved it, and it went
-    // through the 1D returns: 12 of the 36 evaluations per 1,000 plastic updates of the 5 mm
-    // column ensemble (docs/benchmarks.md, "Plastic returns: the tail"). For double the bound
-    // is below kVolResidual unless K dL exceeds about 300 p.
+    // through the 1D returns. In the 5 mm column's replayed returns this tolerance alone took
+    // the mean cost from 3.71 to 3.10 evaluations and the expected largest of 32 from 21.3 to
+    // 10.4 (docs/benchmarks.md, "Plastic returns: the tail, and the cut"). For double the
+    // bound is below kVolResidual unless K dL exceeds about 300 p.
     const S noise = S(16) * std::numeric_limits<S>::epsilon() *
                     (std::fabs(p) + p_tr + K * dL * mp.A_d * (cpt.gM + std::fabs(r))) * inv_scale;
     v.R1_tol = noise > Tolerances<S>::kVolResidual ? noise : Tolerances<S>::kVolResidual;
@@ -346,8 +347,8 @@ GF_HDI UpdateInfo frictional_return_map(const FrictionalParams<S>& mp, Frictiona
     converged = detail::floored_return(res, dL_max, mp.ftol, p, dL, v, evaluations);
     if (!converged && std::isfinite(p)) {
       // The floored root lies above p_min, where the 2D problem is smooth: Newton from there
-      // converged for five of six such returns of the 5 mm column ensemble, in about two
-      // evaluations, against about 20 for the bracketed return.
+      // converged for five of six such returns of the 5 mm column ensemble, in two to three
+      // evaluations, against about 25 for the bracketed return.
       S p_f = p, dL_f = dL, unused = p;
       auto v_f = res(p_f, dL_f);
       ++evaluations;
