@@ -24,15 +24,10 @@ GF_HDI S critical_void_ratio_dp(const FrictionalParams<S>& m, S p) {
   return -critical_void_ratio(m, p) * m.lambda_c * m.xi * std::pow(x, m.xi - S(1)) / m.p_at;
 }
 
-// sin(phi) from tan(phi) and its derivative d sin / d tan.
+// sin(phi) from tan(phi) (cone_ratio, lode_shape.hpp, has it with its derivative).
 template <class S>
 GF_HDI S sin_of_tan(S t) {
   return t / std::sqrt(S(1) + t * t);
-}
-template <class S>
-GF_HDI S dsin_dtan(S t) {
-  const S r = S(1) + t * t;
-  return S(1) / (r * std::sqrt(r));
 }
 
 }  // namespace granflow
