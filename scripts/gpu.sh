@@ -35,6 +35,10 @@
 #   slabs          one scene over 2 GPUs (needs 2): mpm_cuda_check --slabs; the 3D slab's strong
 #                  scaling (--stop-after 0.15, fp32) and the slab widened to 6.4e7 points (bench
 #                  mpm), on 2 and 1 GPUs
+#   frames         the host time outside the steps of the 3D slab (8e6 points, --stop-after 0.15,
+#                  fp32, one GPU): whole command, run wall, device time of the spans; BASE_G=PATH
+#                  (with BASE_SC, the scene folder of that tree) runs an earlier build first, in
+#                  the same call
 #   ensemble-batched  the batched runs of the ensemble part only, the 5 mm one also sampled
 #                  sparsely (ENS_1MM=0: without the 1 mm ensemble)
 #   ensemble-diag  the 64-member column sampled sparsely; a 1 mm member alone, twice
@@ -551,6 +555,30 @@ part_slabs() {
   done
 }
 
+# One line: the whole command's seconds, the run's wall, the device time of its spans (steps x
+# us per step) and what is left outside the steps (set-up, frames, samples, teardown).
+host_time_figures() {
+  awk -v l="$1" -v whole="$2" '/^steps:/ {n = $2} /^wall:/ {w = $2} /device time per step \(spans\)/ {d = $6}
+    /^final run-out:/ {r = $3}
+    END {dev = n * d * 1e-6; printf "  %-8s whole %.1f s, run wall %.1f s, device %.1f s (%s us/step x %s steps), outside the steps %.1f s, run-out %s m\n",
+                                  l, whole, w, dev, d, n, whole - dev, r}' "$3"
+}
+
+part_frames() {
+  local label g sc t0 t1
+  for label in before after; do
+    if [ $label = before ]; then g=${BASE_G:-} sc=${BASE_SC:-$SC}; else g=$G sc=$SC; fi
+    [ -n "$g" ] || continue
+    rm -rf "$R/slab3d_$label"
+    t0=$(date +%s.%N)
+    x 400 "$R/slab3d_$label.txt" "$g" mpm "$sc/column_collapse_3d.toml" --backend cuda --precision fp32 \
+      --stop-after 0.15 --no-png --out "$R/slab3d_$label" --force
+    t1=$(date +%s.%N)
+    host_time_figures "$label" "$(awk -v a="$t0" -v b="$t1" 'BEGIN {print b - a}')" "$R/slab3d_$label.txt" | tee -a "$log"
+    du -sh "$R/slab3d_$label" | tee -a "$log"
+  done
+}
+
 main() {
   if [ $# -eq 0 ]; then
     sed -n '2,/^set -o/p' "${BASH_SOURCE[0]}" | sed '$d' | sed 's/^# \{0,1\}//'
@@ -559,8 +587,8 @@ main() {
   local part fn f t0 status=0
   for part in "$@"; do
     case $part in
-      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options | flow | sanitize-ensemble | loadcell-pt | loadcell-fr | loadcell-ens | slabs) ;;
-      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options flow sanitize-ensemble loadcell-pt loadcell-fr loadcell-ens slabs)" >&2
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options | flow | sanitize-ensemble | loadcell-pt | loadcell-fr | loadcell-ens | slabs | frames) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options flow sanitize-ensemble loadcell-pt loadcell-fr loadcell-ens slabs frames)" >&2
          return 2 ;;
     esac
   done
