@@ -344,7 +344,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     if (!files) return;
     char name[64];
     std::snprintf(name, sizeof name, "frame_%04d%s.vtu", frame_no++, tag.c_str());
-    write_vtu(opt.out_dir + "/" + name, f, sc.output.binary, sc.output.fields);
+    write_vtu(opt.out_dir + "/" + name, f, sc.output.format, sc.output.fields);
     forces.write_pressure(opt.out_dir, frame_no - 1);
     pvd.emplace_back(t, name);
     write_pvd(opt.out_dir + "/frames.pvd", pvd);
