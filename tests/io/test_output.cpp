@@ -104,15 +104,36 @@ std::string big_text(std::size_t n) {
 
 }  // namespace
 
+// The known digests through the CPU's SHA extensions (where it has them) and the portable code.
 TEST(Sha256, KnownDigests) {
-  EXPECT_EQ(io::sha256_hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
-  EXPECT_EQ(io::sha256_hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
-  EXPECT_EQ(io::sha256_hex("abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq"),
-            "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
-  io::Sha256 pieces;  // the same bytes fed in odd pieces
-  const std::string a(1000000, 'a');
-  for (std::size_t at = 0; at < a.size(); at += 4099) pieces.update(std::string_view(a).substr(at, 4099));
-  EXPECT_EQ(pieces.hex(), "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
+  for (const bool extensions : {true, false}) {
+    io::sha256_allow_cpu_extensions(extensions);
+    SCOPED_TRACE(io::sha256_cpu_extensions() ? "SHA extensions" : "portable");
+    EXPECT_EQ(io::sha256_hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+    EXPECT_EQ(io::sha256_hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+    EXPECT_EQ(io::sha256_hex("abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq"),
+              "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
+    io::Sha256 pieces;  // the same bytes fed in odd pieces
+    const std::string a(1000000, 'a');
+    for (std::size_t at = 0; at < a.size(); at += 4099) pieces.update(std::string_view(a).substr(at, 4099));
+    EXPECT_EQ(pieces.hex(), "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
+  }
+  io::sha256_allow_cpu_extensions(true);
+}
+
+// Both paths agree on every length around the block size and on a few MB of noise.
+TEST(Sha256, CpuExtensionsAndPortableCodeAgree) {
+  const std::string bytes = noise(3 * 1024 * 1024 + 5);
+  for (std::size_t n : {std::size_t(0), std::size_t(1), std::size_t(55), std::size_t(56), std::size_t(63),
+                        std::size_t(64), std::size_t(65), std::size_t(127), std::size_t(128), std::size_t(1000),
+                        bytes.size()}) {
+    const std::string_view v = std::string_view(bytes).substr(0, n);
+    io::sha256_allow_cpu_extensions(false);
+    const std::string portable = io::sha256_hex(v);
+    io::sha256_allow_cpu_extensions(true);
+    EXPECT_EQ(io::sha256_hex(v), portable) << n << " bytes";
+  }
+  if (!io::sha256_cpu_extensions()) GTEST_SKIP() << "no SHA extensions on this CPU: only the portable code ran";
 }
 
 TEST(OutputFile, WritesThroughATemporaryAndLeavesNoneBehind) {
