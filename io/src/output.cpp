@@ -1,5 +1,4 @@
 #include <granflow/io/output.hpp>
-#include <granflow/io/sha256.hpp>
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -17,6 +16,8 @@
 #include <streambuf>
 #include <thread>
 #include <vector>
+
+#include <granflow/io/sha256.hpp>
 
 namespace granflow::io {
 
