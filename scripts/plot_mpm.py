@@ -3,8 +3,8 @@
 
     python3 scripts/plot_mpm.py DIR [--fields p,T,eps_pd] [--frames all|last] [--spacing S]
 
-Reads DIR/frames.pvd and the VTU frames it lists (base64 "binary" or ASCII, as granflow writes
-them), and writes DIR/png/<frame>_<field>.png plus DIR/png/runout.png from runout.csv and, where
+Reads DIR/frames.pvd and the VTU frames it lists (raw appended binary, inline base64 or ASCII:
+output.format), and writes DIR/png/<frame>_<field>.png plus DIR/png/runout.png from runout.csv and, where
 the run measured forces, DIR/png/forces.png from obstacle_forces.csv (each obstacle's mean and
 largest single-step force; every boundary's when the scene has no obstacle).
 Fields: any scalar point array of the frames (p, q, eps_pd, T, eta_c, K_col, e, sigma_xx,
@@ -33,21 +33,38 @@ LOG_FIELDS = ("T", "eta_c")
 
 
 def read_vtu(path, np):
-    """Float64 point arrays of a granflow VTU frame: name -> array (components as rows)."""
-    root = ET.parse(path).getroot()
+    """Float64 point arrays of a granflow VTU frame: name -> array (components as rows).
+    Arrays appended raw after the XML (output.format "binary"), inline base64 ("base64") or
+    ASCII; each binary block starts with its byte count, a UInt32 or UInt64 (header_type)."""
+    with open(path, "rb") as f:
+        data = f.read()
+    tag = b'<AppendedData encoding="raw">'
+    at = data.find(tag)
+    if at >= 0:  # the XML before the raw bytes, closed; they start after the '_'
+        root = ET.fromstring(data[:at] + b"</VTKFile>")
+        raw0 = data.index(b"_", at + len(tag)) + 1
+    else:
+        root = ET.fromstring(data)
+        raw0 = None
+    order = "<" if root.get("byte_order", "LittleEndian") == "LittleEndian" else ">"
+    count = order + ("Q" if root.get("header_type") == "UInt64" else "I")
+    csize = struct.calcsize(count)
     arrays = {}
     for da in root.iter("DataArray"):
         name, fmt, typ = da.get("Name"), da.get("format"), da.get("type")
         if typ != "Float64":
             continue
         ncomp = int(da.get("NumberOfComponents", "1"))
-        text = (da.text or "").strip()
         if fmt == "ascii":
-            vals = np.array(text.split(), dtype=float)
+            vals = np.array((da.text or "").split(), dtype=float)
+        elif fmt == "appended":
+            start = raw0 + int(da.get("offset"))
+            nbytes = struct.unpack(count, data[start:start + csize])[0]
+            vals = np.frombuffer(data, dtype=order + "f8", count=nbytes // 8, offset=start + csize)
         else:
-            raw = base64.b64decode(text)
-            nbytes = struct.unpack("<I", raw[:4])[0]
-            vals = np.frombuffer(raw[4:4 + nbytes], dtype="<f8")
+            raw = base64.b64decode((da.text or "").strip())
+            nbytes = struct.unpack(count, raw[:csize])[0]
+            vals = np.frombuffer(raw[csize:csize + nbytes], dtype=order + "f8")
         arrays[name] = vals.reshape(-1, ncomp).T if ncomp > 1 else vals
     if "velocity" in arrays:
         arrays["speed"] = np.sqrt((arrays["velocity"] ** 2).sum(axis=0))

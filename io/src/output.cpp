@@ -4,16 +4,20 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <mutex>
 #include <streambuf>
 #include <thread>
 #include <vector>
+
+#include <granflow/io/sha256.hpp>
 
 namespace granflow::io {
 
@@ -132,7 +136,8 @@ int write_fault(const std::string& path, WriteStep step, std::size_t& bytes) {
 
 // ---- AtomicFile ---------------------------------------------------------------------------
 
-// Buffers into the temporary's descriptor; the first failed write is kept for commit().
+// Buffers into the temporary's descriptor, hashing the bytes as they go out; the first failed
+// write is kept for commit(). A piece of at least the buffer's size skips the copy into it.
 class AtomicFile::Buffer : public std::streambuf {
  public:
   Buffer(int fd, const std::string& path) : fd_(fd), path_(path), buf_(1 << 16) {
@@ -144,6 +149,9 @@ class AtomicFile::Buffer : public std::streambuf {
     setp(buf_.data(), buf_.data() + buf_.size());
     return ok;
   }
+  // The digest and size of what was written; call once, after the last drain().
+  std::string digest() { return hash_.hex(); }
+  std::uint64_t written() const { return written_; }
 
  protected:
   int_type overflow(int_type c) override {
@@ -154,13 +162,18 @@ class AtomicFile::Buffer : public std::streambuf {
     }
     return traits_type::not_eof(c);
   }
+  std::streamsize xsputn(const char* s, std::streamsize n) override {
+    if (n < static_cast<std::streamsize>(buf_.size())) return std::streambuf::xsputn(s, n);
+    return drain() && write_all(s, static_cast<std::size_t>(n)) ? n : 0;
+  }
   int sync() override { return drain() ? 0 : -1; }
 
  private:
+  // Pieces of at most 1 MiB: each is hashed while it is still in the cache.
   bool write_all(const char* p, std::size_t n) {
     if (error_) return false;
     while (n > 0) {
-      std::size_t want = n;
+      std::size_t want = std::min<std::size_t>(n, 1 << 20);
       if (const int e = write_fault(path_, WriteStep::Write, want)) {
         error_ = e;
         return false;
@@ -171,6 +184,8 @@ class AtomicFile::Buffer : public std::streambuf {
         error_ = k < 0 ? errno : EIO;
         return false;
       }
+      hash_.update(std::string_view(p, static_cast<std::size_t>(k)));
+      written_ += static_cast<std::uint64_t>(k);
       p += k;
       n -= static_cast<std::size_t>(k);
     }
@@ -180,7 +195,42 @@ class AtomicFile::Buffer : public std::streambuf {
   const std::string& path_;
   std::vector<char> buf_;
   int error_ = 0;
+  Sha256 hash_;
+  std::uint64_t written_ = 0;
 };
+
+// ---- the files commit() wrote (write_manifest) --------------------------------------------
+
+namespace {
+
+std::mutex g_committed_mutex;
+std::map<std::string, CommittedFile> g_committed;  // by absolute, normalised path
+
+std::string registry_key(const std::string& path) {
+  std::error_code ec;
+  const fs::path a = fs::absolute(path, ec);
+  return (ec ? fs::path(path) : a).lexically_normal().string();
+}
+
+std::int64_t nanoseconds(const struct timespec& t) { return std::int64_t(t.tv_sec) * 1000000000 + t.tv_nsec; }
+
+bool same_file(const CommittedFile& c, const struct stat& st) {
+  return c.device == static_cast<std::uint64_t>(st.st_dev) && c.inode == static_cast<std::uint64_t>(st.st_ino) &&
+         c.size == static_cast<std::uint64_t>(st.st_size) && c.mtime_ns == nanoseconds(st.st_mtim) &&
+         c.ctime_ns == nanoseconds(st.st_ctim);
+}
+
+}  // namespace
+
+std::optional<CommittedFile> committed_file(const std::string& path) {
+  const std::string key = registry_key(path);
+  std::lock_guard<std::mutex> lk(g_committed_mutex);
+  const auto it = g_committed.find(key);
+  if (it == g_committed.end()) return std::nullopt;
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 || !same_file(it->second, st)) return std::nullopt;
+  return it->second;
+}
 
 std::string temporary_name(const std::string& path) { return path + ".tmp-" + std::to_string(::getpid()); }
 
@@ -228,6 +278,8 @@ void AtomicFile::commit() {
   if (committed_) return;
   stream_->flush();
   if (!buffer_->drain() || buffer_->error()) fail("write", buffer_->error() ? buffer_->error() : EIO);
+  const std::string digest = buffer_->digest();
+  const std::uint64_t size = buffer_->written();
   std::size_t none = 0;
   if (durability_ == Durability::Sync) {
     int e = write_fault(path_, WriteStep::Sync, none);
@@ -243,6 +295,7 @@ void AtomicFile::commit() {
   if (!e && ::rename(temporary_.c_str(), path_.c_str()) != 0) e = errno;
   if (e) fail("replace", e);
   committed_ = true;
+  record(digest, size);
   if (durability_ == Durability::Sync) {
     // the new name on disk too; best effort: the file is in place whatever this says
     const fs::path parent = fs::path(path_).parent_path();
@@ -252,6 +305,24 @@ void AtomicFile::commit() {
       ::close(dfd);
     }
   }
+}
+
+void AtomicFile::record(const std::string& digest, std::uint64_t size) const {
+  struct stat st {};
+  const std::string key = registry_key(path_);
+  std::lock_guard<std::mutex> lk(g_committed_mutex);
+  if (::stat(path_.c_str(), &st) != 0 || static_cast<std::uint64_t>(st.st_size) != size) {
+    g_committed.erase(key);  // changed already: write_manifest reads it
+    return;
+  }
+  CommittedFile& c = g_committed[key];
+  c.sha256 = digest;
+  c.size = size;
+  c.synced = durability_ == Durability::Sync;
+  c.device = static_cast<std::uint64_t>(st.st_dev);
+  c.inode = static_cast<std::uint64_t>(st.st_ino);
+  c.mtime_ns = nanoseconds(st.st_mtim);
+  c.ctime_ns = nanoseconds(st.st_ctim);
 }
 
 void write_file(const std::string& path, std::string_view bytes, Durability durability) {

@@ -255,6 +255,20 @@ ManifestEntry hash_file(const std::string& path, const std::string& name, bool s
   return e;
 }
 
+// A file as AtomicFile::commit() left it is not read again: its digest is the one computed as
+// it was written, and a file committed with Durability::Sync is on disk already. Any other
+// file, or one changed since, is read back and synced.
+ManifestEntry committed_entry(const std::string& path, const std::string& name) {
+  const std::optional<CommittedFile> c = committed_file(path);
+  if (!c) return hash_file(path, name, true);
+  if (!c->synced) sync_path(path);
+  ManifestEntry e;
+  e.name = name;
+  e.sha256 = c->sha256;
+  e.size = c->size;
+  return e;
+}
+
 }  // namespace
 
 void write_manifest(const std::string& dir, const std::string& status) {
@@ -264,7 +278,7 @@ void write_manifest(const std::string& dir, const std::string& status) {
   text += "# status: " + one_line + "\n";
   for (const auto& name : files_below(dir)) {
     if (!listed_in_manifest(name)) continue;
-    const ManifestEntry e = hash_file(join(dir, name), name, true);
+    const ManifestEntry e = committed_entry(join(dir, name), name);
     text += e.sha256 + "  " + std::to_string(e.size) + "  " + e.name + "\n";
   }
   write_file(join(dir, kManifestFile), text, Durability::Sync);

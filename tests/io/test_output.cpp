@@ -76,6 +76,25 @@ io::WriteFault fail_at(io::WriteStep at, std::size_t budget = 0, int err = ENOSP
   };
 }
 
+// The digest coreutils' sha256sum gives (another program than the one under test).
+std::string sha256sum(const std::string& path) {
+  FILE* p = ::popen(("sha256sum '" + path + "'").c_str(), "r");
+  if (!p) return "popen failed";
+  char digest[65] = {};
+  const bool read = std::fscanf(p, "%64s", digest) == 1;
+  return ::pclose(p) == 0 && read ? digest : "sha256sum failed";
+}
+
+// Bytes no text compresses to a pattern: a linear congruential sequence.
+std::string noise(std::size_t n, std::uint32_t x = 12345) {
+  std::string bytes(n, '\0');
+  for (char& c : bytes) {
+    x = x * 1664525u + 1013904223u;
+    c = static_cast<char>(x >> 24);
+  }
+  return bytes;
+}
+
 std::string big_text(std::size_t n) {
   std::string s;
   for (std::size_t i = 0; s.size() < n; ++i) s += std::to_string(i) + ",";
@@ -85,15 +104,36 @@ std::string big_text(std::size_t n) {
 
 }  // namespace
 
+// The known digests through the CPU's SHA extensions (where it has them) and the portable code.
 TEST(Sha256, KnownDigests) {
-  EXPECT_EQ(io::sha256_hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
-  EXPECT_EQ(io::sha256_hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
-  EXPECT_EQ(io::sha256_hex("abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq"),
-            "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
-  io::Sha256 pieces;  // the same bytes fed in odd pieces
-  const std::string a(1000000, 'a');
-  for (std::size_t at = 0; at < a.size(); at += 4099) pieces.update(std::string_view(a).substr(at, 4099));
-  EXPECT_EQ(pieces.hex(), "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
+  for (const bool extensions : {true, false}) {
+    io::sha256_allow_cpu_extensions(extensions);
+    SCOPED_TRACE(io::sha256_cpu_extensions() ? "SHA extensions" : "portable");
+    EXPECT_EQ(io::sha256_hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+    EXPECT_EQ(io::sha256_hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+    EXPECT_EQ(io::sha256_hex("abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq"),
+              "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
+    io::Sha256 pieces;  // the same bytes fed in odd pieces
+    const std::string a(1000000, 'a');
+    for (std::size_t at = 0; at < a.size(); at += 4099) pieces.update(std::string_view(a).substr(at, 4099));
+    EXPECT_EQ(pieces.hex(), "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
+  }
+  io::sha256_allow_cpu_extensions(true);
+}
+
+// Both paths agree on every length around the block size and on a few MB of noise.
+TEST(Sha256, CpuExtensionsAndPortableCodeAgree) {
+  const std::string bytes = noise(3 * 1024 * 1024 + 5);
+  for (std::size_t n : {std::size_t(0), std::size_t(1), std::size_t(55), std::size_t(56), std::size_t(63),
+                        std::size_t(64), std::size_t(65), std::size_t(127), std::size_t(128), std::size_t(1000),
+                        bytes.size()}) {
+    const std::string_view v = std::string_view(bytes).substr(0, n);
+    io::sha256_allow_cpu_extensions(false);
+    const std::string portable = io::sha256_hex(v);
+    io::sha256_allow_cpu_extensions(true);
+    EXPECT_EQ(io::sha256_hex(v), portable) << n << " bytes";
+  }
+  if (!io::sha256_cpu_extensions()) GTEST_SKIP() << "no SHA extensions on this CPU: only the portable code ran";
 }
 
 TEST(OutputFile, WritesThroughATemporaryAndLeavesNoneBehind) {
@@ -333,6 +373,74 @@ TEST(Manifest, LargeFileIsListedWithItsWholeSizeAndDigest) {
   const auto changed = io::verify_manifest(s.dir.string());
   ASSERT_EQ(changed.size(), 1u);
   EXPECT_EQ(changed[0], "big.vtu: checksum differs");
+}
+
+// commit() records the digest of the bytes as they went out, pieces through the stream's buffer
+// and pieces past it alike; it is the file's (sha256sum), and the manifest lists it without
+// reading the file back or syncing it again.
+TEST(Manifest, CommittedFileIsListedWithTheDigestComputedAsItWasWritten) {
+  Scratch s;
+  const std::string bytes = noise(3 * 1024 * 1024 + 7);
+  {
+    io::AtomicFile f(s.path("frame.vtu"), io::Durability::Sync);
+    f.write(std::string_view(bytes).substr(0, 100));                  // buffered
+    f.write(std::string_view(bytes).substr(100, 2 * 1024 * 1024));    // past the buffer
+    f.stream() << std::string_view(bytes).substr(100 + 2 * 1024 * 1024);
+    f.commit();
+  }
+  const auto c = io::committed_file(s.path("frame.vtu"));
+  ASSERT_TRUE(c.has_value());
+  EXPECT_EQ(c->sha256, sha256sum(s.path("frame.vtu")));
+  EXPECT_EQ(c->size, bytes.size());
+  EXPECT_TRUE(c->synced);
+  EXPECT_TRUE(io::committed_file(s.dir.string() + "/./frame.vtu").has_value()) << "another spelling of the path";
+  io::write_file(s.path("index.pvd"), "index\n", io::Durability::Buffered);
+  EXPECT_FALSE(io::committed_file(s.path("index.pvd"))->synced);
+  std::vector<std::string> synced;  // the manifest syncs the Buffered file only, and itself
+  Fault f([&](const std::string& path, io::WriteStep step, std::size_t&) {
+    if (step == io::WriteStep::Sync) synced.push_back(fs::path(path).filename().string());
+    return 0;
+  });
+  io::write_manifest(s.dir.string(), "complete");
+  EXPECT_EQ(synced, (std::vector<std::string>{"index.pvd", "granflow.manifest"}));
+  const io::Manifest m = io::read_manifest(s.dir.string());
+  ASSERT_EQ(m.files.size(), 2u);
+  EXPECT_EQ(m.files[0].name, "frame.vtu");
+  EXPECT_EQ(m.files[0].sha256, sha256sum(s.path("frame.vtu")));
+  EXPECT_EQ(m.files[0].size, bytes.size());
+  EXPECT_EQ(m.files[1].sha256, io::sha256_hex("index\n"));
+  EXPECT_TRUE(io::verify_manifest(s.dir.string()).empty());
+}
+
+// A file changed after its commit, its size kept (a byte overwritten in place) or not, or
+// replaced by another program, is read back and hashed again: the manifest has its new digest.
+TEST(Manifest, FileChangedAfterItsCommitIsHashedAgain) {
+  Scratch s;
+  for (const char* name : {"same_size.csv", "appended.csv", "replaced.csv"}) io::write_file(s.path(name), noise(5000));
+  for (const char* name : {"same_size.csv", "appended.csv", "replaced.csv"})
+    ASSERT_TRUE(io::committed_file(s.path(name)).has_value()) << name;
+  {
+    std::fstream same(s.path("same_size.csv"), std::ios::in | std::ios::out | std::ios::binary);
+    same.seekp(2500);
+    same.put('\x7f');
+  }
+  std::ofstream(s.path("appended.csv"), std::ios::app | std::ios::binary) << "x";
+  std::ofstream(s.path("other"), std::ios::binary) << noise(5000, 99);
+  fs::rename(s.path("other"), s.path("replaced.csv"));
+  std::vector<std::string> synced;
+  Fault f([&](const std::string& path, io::WriteStep step, std::size_t&) {
+    if (step == io::WriteStep::Sync) synced.push_back(fs::path(path).filename().string());
+    return 0;
+  });
+  io::write_manifest(s.dir.string(), "complete");
+  EXPECT_EQ(synced.size(), 4u) << "each file read back and synced, then the manifest";
+  for (const io::ManifestEntry& e : io::read_manifest(s.dir.string()).files) {
+    SCOPED_TRACE(e.name);
+    EXPECT_FALSE(io::committed_file(s.path(e.name)).has_value());
+    EXPECT_EQ(e.sha256, sha256sum(s.path(e.name)));
+    EXPECT_EQ(e.size, fs::file_size(s.path(e.name)));
+  }
+  EXPECT_TRUE(io::verify_manifest(s.dir.string()).empty());
 }
 
 TEST(RunFolder, FreshCreatesAndLocksThenCompletes) {

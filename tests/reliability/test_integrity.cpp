@@ -292,6 +292,49 @@ TEST(IntegrityMpm, FailedRenameKeepsTheIndex) {
   EXPECT_FALSE(has(slurp((w.dir / "o/frames.pvd").string()), "frame_0002"));
 }
 
+// Frames are written on a thread of their own (issue 49): a frame that fails there (here its
+// fsync) stops the run at the next frame or checkpoint with the same message, rc 2; the frames
+// before it, the index listing just them and the checkpoint before it are intact, and the
+// restart gives the files of an uninterrupted run.
+TEST(IntegrityMpm, FrameFailingInTheWriterThreadStopsTheRunAndKeepsWhatCameBefore) {
+  const Work w("mpm_writer_thread");
+  const Outcome ref = w.run(Work::mpm("ref"));
+  ASSERT_EQ(ref.exit_code, 0) << ref.err;
+  const Outcome o = w.run(Work::mpm("o"), {{"GRANFLOW_FAULT_FILE", "frame_0002.vtu"}, {"GRANFLOW_FAULT_AT", "sync"}});
+  ASSERT_EQ(o.exit_code, 2) << o.err;
+  const std::string m = error_line(o);
+  EXPECT_TRUE(has(m, "error: o/frame_0002.vtu: cannot write: No space left on device")) << m;
+  EXPECT_TRUE(has(m, "; nothing was written; the run stopped at t = ")) << m;
+  // frame_0002 is at t = 0.09; the checkpoint of 0.10 waits for it, and is not written
+  EXPECT_TRUE(has(m, "its checkpoint of t = 0.08 s (o/checkpoint.bin) is intact")) << m;
+  expect_no_temporaries(w);
+  expect_consistent_frames(w, "o");
+  const auto names = w.names("o");
+  EXPECT_FALSE(names.count("frame_0002.vtu"));
+  EXPECT_FALSE(names.count("granflow.manifest"));
+  const auto before = w.files("ref"), now = w.files("o");
+  for (const char* f : {"frame_0000.vtu", "frame_0001_consolidation.vtu"}) EXPECT_TRUE(now.at(f) == before.at(f)) << f;
+  const std::string pvd = now.at("frames.pvd");
+  EXPECT_TRUE(has(pvd, "frame_0001_consolidation.vtu") && !has(pvd, "frame_0002")) << pvd;
+  const Outcome r = w.run(Work::mpm("o", {"--restart"}));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  expect_same(w.files("ref"), w.files("o"));
+  EXPECT_TRUE(granflow::io::verify_manifest((w.dir / "o").string()).empty());
+}
+
+// A slow disk under the frames (every step of their writes waits): the loop hands frames over
+// faster than they are written, waits where two are pending, and the files are those of a run
+// on a fast disk, the manifest right.
+TEST(IntegrityMpm, SlowFrameWritesGiveTheSameFiles) {
+  const Work w("mpm_slow_frames");
+  const Outcome ref = w.run(Work::mpm("ref"));
+  ASSERT_EQ(ref.exit_code, 0) << ref.err;
+  const Outcome o = w.run(Work::mpm("o"), {{"GRANFLOW_FAULT_FILE", "/frame_"}, {"GRANFLOW_FAULT_DELAY_MS", "40"}});
+  ASSERT_EQ(o.exit_code, 0) << o.err;
+  expect_same(w.files("ref"), w.files("o"));
+  EXPECT_TRUE(granflow::io::verify_manifest((w.dir / "o").string()).empty());
+}
+
 // Another run holds the folder: refused with the owner named, --force and --restart included,
 // and the folder is left as it was.
 TEST(IntegrityMpm, ASecondRunOnTheFolderIsRefused) {

@@ -167,7 +167,7 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
       char name[64];
       std::snprintf(name, sizeof name, "frame_%04d%s.vtu", pvd_count[k]++, tag.c_str());
       const std::string dir = member_dir(opt.out_dir, opt.first_member + k);
-      write_vtu(dir + "/" + name, member_frame(full, k, np), sc.output.binary, sc.output.fields);
+      write_vtu(dir + "/" + name, member_frame(full, k, np), sc.output.format, sc.output.fields);
       pvd[k].emplace_back(t, name);
       write_pvd(dir + "/frames.pvd", pvd[k]);
     }

@@ -73,9 +73,15 @@ void ForceRecorder::write_csv(const std::string& dir) const {
   write_text(dir + "/obstacle_forces.csv", os.str());
 }
 
-void ForceRecorder::write_pressure(const std::string& dir, int frame_no) const {
+std::string ForceRecorder::pressure_file(int frame_no) {
+  char file[64];
+  std::snprintf(file, sizeof file, "obstacle_pressure_%04d.csv", frame_no);
+  return file;
+}
+
+std::string ForceRecorder::pressure_csv() const {
   const SceneSetup& su = *su_;
-  if (!active_ || su.scene.dim != 2 || su.scene.obstacles.empty() || last_.node_impulse.empty()) return;
+  if (!active_ || su.scene.dim != 2 || su.scene.obstacles.empty() || last_.node_impulse.empty()) return "";
   const long np = static_cast<long>(su.probes.size());
   std::ostringstream os;
   os.precision(9);
@@ -107,9 +113,7 @@ void ForceRecorder::write_pressure(const std::string& dir, int frame_no) const {
          << ft / h << '\n';
     }
   }
-  char file[64];
-  std::snprintf(file, sizeof file, "/obstacle_pressure_%04d.csv", frame_no);
-  write_text(dir + file, os.str());
+  return os.str();
 }
 
 void ForceRecorder::write_geometry(const std::string& dir, const Scene& sc) {

@@ -17,6 +17,7 @@
 #include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/kernels.hpp>
 #include <granflow/mpm/forces.hpp>
+#include <granflow/mpm/frame_writer.hpp>
 #include <granflow/mpm/maps.hpp>
 
 namespace granflow::mpm {
@@ -340,14 +341,24 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
       last_good = fr;
     });
   };
+  // Frames go to a thread of their own with a copy of the frame: the VTU, its pressure profile,
+  // then the index, in that order, while the loop goes on. A write's error comes back at the
+  // next frame or flush(); flush() before a checkpoint and at the end (an exception: its
+  // destructor writes what was handed over).
+  FrameWriter writer(sc.output.format, sc.output.fields);
   auto write_frame = [&](const Frame& f, double t, const std::string& tag) {
     if (!files) return;
     char name[64];
     std::snprintf(name, sizeof name, "frame_%04d%s.vtu", frame_no++, tag.c_str());
-    write_vtu(opt.out_dir + "/" + name, f, sc.output.binary, sc.output.fields);
-    forces.write_pressure(opt.out_dir, frame_no - 1);
     pvd.emplace_back(t, name);
-    write_pvd(opt.out_dir + "/frames.pvd", pvd);
+    FrameJob job;
+    job.frame = f;
+    job.path = opt.out_dir + "/" + name;
+    if (std::string csv = forces.pressure_csv(); !csv.empty())
+      job.beside.emplace_back(opt.out_dir + "/" + ForceRecorder::pressure_file(frame_no - 1), std::move(csv));
+    job.index_path = opt.out_dir + "/frames.pvd";
+    job.index = pvd;
+    writer.write(std::move(job));
   };
 
   const auto wall0 = Clock::now();
@@ -413,8 +424,8 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     return ck_dt > 0 ? (std::floor(x / ck_dt + 1e-9) + 1) * ck_dt : std::numeric_limits<double>::infinity();
   };
   double next_ckpt = next_checkpoint_after(t);
-  std::size_t synced_frames = opt.resume ? pvd.size() : 0;  // a restart's earlier frames were synced
   auto save = [&] {
+    writer.flush();  // the frames it lists are on disk before it (the writer syncs each)
     settle();
     Checkpoint c;
     c.scene_hash = opt.scene_hash;
@@ -441,9 +452,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     ls.wall_s = wall_before + elapsed();
     ls.maps = maps.state();
     ls.forces = forces.state(runner);
-    // the frames it lists on disk before it (the series and index are rewritten on restart)
-    for (; synced_frames < pvd.size(); ++synced_frames) io::sync_path(opt.out_dir + "/" + pvd[synced_frames].second);
-    write_checkpoint(ckpt_path, c);
+    write_checkpoint(ckpt_path, c);  // the series and index are rewritten on restart
     sum.checkpoint = ckpt_path;
     at.checkpoint_t = t;
     write_series_csv(opt.out_dir, sc, sum);  // readable series up to the checkpoint
@@ -557,6 +566,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
       write_profile_csv(opt.out_dir + "/profile_final.csv", free_surface(sum.ok ? fr : last_good, su));
       maps.write_maps(opt.out_dir, sum.ok ? fr : last_good);  // the last sample's frame: maxima include it
     }
+    writer.flush();  // before the checkpoint goes: a frame that fails leaves it to restart from
     if (complete && t >= t_total * (1 - 1e-12)) {  // nothing left to continue
       std::error_code ec;
       std::filesystem::remove(ckpt_path, ec);

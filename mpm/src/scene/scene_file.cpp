@@ -611,7 +611,8 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
   if (auto o = root.optional_table("output")) {
     if (o->has("times")) sc.output.times = o->numbers("times", Bounds::non_negative());
     sc.output.series_dt = o->number_or("series_dt", 1e-3, Bounds::positive());
-    sc.output.binary = o->choice("format", {"binary", "ascii"}, "binary") == "binary";
+    const std::string format = o->choice("format", {"binary", "base64", "ascii"}, "binary");
+    sc.output.format = format == "base64" ? FrameFormat::Base64 : format == "ascii" ? FrameFormat::Ascii : FrameFormat::Raw;
     sc.output.frames_in_stages = o->boolean_or("stage_frames", true);
     sc.output.checkpoint_dt = o->number_or("checkpoint_dt", 0.0, Bounds::positive());
     if (o->has("fields")) {

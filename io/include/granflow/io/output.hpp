@@ -5,8 +5,10 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <ostream>
 #include <stdexcept>
 #include <string>
@@ -36,6 +38,8 @@ enum class Durability { Buffered, Sync };
 
 // A file being written. stream() buffers into the temporary; nothing appears under `path`
 // until commit(). Destroyed without commit() (an exception on the way), the temporary goes.
+// The bytes are hashed (SHA-256) as they go to the OS; commit() records the digest for
+// write_manifest (committed_file below), which then need not read the file back.
 class AtomicFile {
  public:
   explicit AtomicFile(std::string path, Durability durability = Durability::Sync);
@@ -53,6 +57,7 @@ class AtomicFile {
   class Buffer;
   [[noreturn]] void fail(const std::string& action, int err);
   void discard() noexcept;
+  void record(const std::string& digest, std::uint64_t size) const;  // committed_file()
   std::string path_, temporary_;
   Durability durability_;
   int fd_ = -1;
@@ -60,6 +65,22 @@ class AtomicFile {
   std::unique_ptr<Buffer> buffer_;
   std::unique_ptr<std::ostream> stream_;
 };
+
+// What AtomicFile::commit() left at a path: the digest and size of the bytes it wrote, and the
+// file's identity after the rename (stat). A later change of the file (a write, a truncation, a
+// replacement) changes its size, inode, modification or change time.
+struct CommittedFile {
+  std::string sha256;
+  std::uint64_t size = 0;
+  bool synced = false;  // Durability::Sync: on disk since the commit
+  std::uint64_t device = 0, inode = 0;
+  std::int64_t mtime_ns = 0, ctime_ns = 0;
+};
+// The record of the last commit to `path` (any spelling of it), where the file there is still
+// the one committed: same inode, size, modification and change time. Otherwise nullopt.
+// A change within the file system's timestamp granularity after the commit that keeps the size
+// would go unseen; Linux 6.13+ gives such a change a finer time (multigrain timestamps).
+std::optional<CommittedFile> committed_file(const std::string& path);
 
 // The whole file at once, through an AtomicFile.
 void write_file(const std::string& path, std::string_view bytes, Durability durability = Durability::Sync);

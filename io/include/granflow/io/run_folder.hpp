@@ -53,6 +53,8 @@ struct Manifest {
 };
 // Syncs every regular file below `dir` (not the lock, the manifest or temporaries) to disk, then
 // writes the manifest listing them by relative path ("png/runout.png") with size and SHA-256.
+// A file an AtomicFile committed and nothing changed since (committed_file) is not read back:
+// its digest is the one computed as it was written, and it is synced only if it was Buffered.
 void write_manifest(const std::string& dir, const std::string& status);
 // Reads DIR/granflow.manifest (InputError when it is absent or malformed).
 Manifest read_manifest(const std::string& dir);

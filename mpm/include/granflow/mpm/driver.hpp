@@ -7,6 +7,8 @@
 #include <utility>
 #include <vector>
 
+#include <granflow/io/output.hpp>
+
 #include "forces.hpp"
 #include "runner.hpp"
 
@@ -133,7 +135,9 @@ std::string bench_report(const SceneSetup& su, const Runner& runner, const Bench
 // Writers, through io::AtomicFile: a file appears under its name only complete; a failure
 // (io::OutputError) leaves the previous file.
 // `fields`: the point arrays besides position (scene.hpp frame_field_names); empty: all.
-void write_vtu(const std::string& path, const Frame& fr, bool binary, const std::vector<std::string>& fields = {});
+// FrameFormat::Raw writes the arrays from the frame's vectors in pieces, with no whole copy.
+void write_vtu(const std::string& path, const Frame& fr, FrameFormat format, const std::vector<std::string>& fields = {},
+               io::Durability durability = io::Durability::Buffered);
 void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& frames);
 
 }  // namespace granflow::mpm

@@ -51,9 +51,12 @@ class ForceRecorder {
   // sample, the largest single-step force, the mean normal and tangential parts, the mean
   // moment and the impulse (units in the header).
   void write_csv(const std::string& dir) const;
-  // 2D obstacles: dir/obstacle_pressure_NNNN.csv (the frame's number) from the last sample's
-  // node sums: obstacle, face, node x and y, s along the face, normal and shear stress.
-  void write_pressure(const std::string& dir, int frame_no) const;
+  // 2D obstacles: the text of obstacle_pressure_NNNN.csv (pressure_file: the frame's number)
+  // from the last sample's node sums: obstacle, face, node x and y, s along the face, normal and
+  // shear stress. Empty where there is none (no 2D obstacle, no sample); the frame writer
+  // writes it after its frame.
+  std::string pressure_csv() const;
+  static std::string pressure_file(int frame_no);
   // dir/obstacles.vtu: the obstacles' outlines (2D polygons) or solids (3D), cell data `obstacle`.
   static void write_geometry(const std::string& dir, const Scene& sc);
 

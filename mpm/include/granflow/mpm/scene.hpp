@@ -173,10 +173,14 @@ struct Gauge {
   double width = 0;  // band about the line [m]
 };
 
+// Encoding of the VTU frames' arrays (output.format): Raw, raw bytes appended after the XML
+// ("binary", UInt64 headers); Base64, inline base64 (UInt32 headers); Ascii, decimal text.
+enum class FrameFormat { Raw, Base64, Ascii };
+
 struct OutputSpec {
   std::vector<double> times;     // frames, measured from the start of the last stage
   double series_dt = 1e-3;       // sampling of run-out, height and tracked particles
-  bool binary = true;            // VTU data base64-encoded (false: ASCII)
+  FrameFormat format = FrameFormat::Raw;  // of the VTU frames
   bool frames_in_stages = true;  // one frame at the end of every earlier stage
   std::vector<std::string> png_fields;  // fields plot_mpm.py draws
   double checkpoint_dt = 0;      // simulated time between checkpoints (0: only when interrupted)
