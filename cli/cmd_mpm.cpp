@@ -259,6 +259,9 @@ std::string restart_command(const MpmOptions& o, const std::string& out) {
 }
 
 void run_mpm(const MpmOptions& o) {
+  using Clock = std::chrono::steady_clock;
+  const auto t_start = Clock::now();
+  auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
   require_backend(o.backend);
   const mpm::SceneSetup su = setup_from_file(o.scene, o.overrides, o.precision);
   std::string out = o.out;
@@ -326,6 +329,8 @@ void run_mpm(const MpmOptions& o) {
   ro.resume = resume ? &*resume : nullptr;
   ro.interrupt = &g_signal;
   mpm::RunSummary s;
+  const double before_run_s = since(t_start);
+  const auto t_run = Clock::now();
   try {
     SignalGuard guard;
     s = mpm::run(su, *runner, ro);
@@ -346,6 +351,8 @@ void run_mpm(const MpmOptions& o) {
                  s.t_end, s.steps, s.checkpoint.c_str(), again.c_str());
     throw ExitStatus{128 + sig};
   }
+  const double run_s = since(t_run);
+  const auto t_after = Clock::now();
   std::printf("scene: %s\nparticles: %ld\nsteps: %ld\nsimulated: %.6g s\nwall: %.3f s\n", sc.name.c_str(),
               runner->particles(), s.steps, s.t_end, s.wall_s);
   std::printf("precision: %s\n", mpm::precision_name(sc.precision));
@@ -430,6 +437,14 @@ void run_mpm(const MpmOptions& o) {
   else
     status << "complete";
   folder.complete(status.str());
+  // Host time around the steps (the process's start and teardown are outside this line): on the
+  // GPU the run's own share is its wall less the spans' device time (frames, samples, the loop).
+  std::printf("host time: before the run %.2f s (scene, particles, runner), after it %.2f s (outputs, PNGs, manifest)",
+              before_run_s, since(t_after));
+  if (s.times.span_steps > 0)
+    std::printf("; in the run outside the spans %.2f s (run %.2f s less device %.2f s)", run_s - s.times.device, run_s,
+                s.times.device);
+  std::printf("\n");
   if (!s.ok) throw std::runtime_error("run stopped: " + s.message);
 }
 

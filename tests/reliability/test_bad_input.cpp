@@ -273,7 +273,9 @@ TEST(EnsembleProcess, SigintStopsWithinASecondOrTwo) {
   const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - sent).count();
   EXPECT_FALSE(o.signaled) << o.err;
   EXPECT_EQ(o.exit_code, 130) << o.err;
-  EXPECT_LT(took, 3.0) << "stopping took " << took << " s";  // 0.5 s here; slack for ASan on a loaded CI
+  // 0.5 s on an idle machine; 4 s was seen under ASan at load 6. A span that ignored the signal
+  // would run its 10,000 steps: tens of seconds on one core, longer under ASan.
+  EXPECT_LT(took, 10.0) << "stopping took " << took << " s";
   EXPECT_NE(o.err.find("granflow: interrupted at t = "), std::string::npos) << o.err;
   EXPECT_TRUE(fs::exists(dir / "o" / "member_0063" / "runout.csv"));
 }
