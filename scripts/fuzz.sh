@@ -24,7 +24,7 @@ for t in "${targets[@]}"; do
   [ "$t" = csv ] && build+=(fuzz_csv_fast)
 done
 source scripts/generator.sh
-cmake -S . -B build-fuzz $(cmake_generator build-fuzz) -DCMAKE_CXX_COMPILER="${FUZZ_CXX:-clang++}" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+cmake -S . -B build-fuzz $(cmake_generator build-fuzz) $(fast_linker) -DCMAKE_CXX_COMPILER="${FUZZ_CXX:-clang++}" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
       -DGRANFLOW_FUZZ=ON -DGRANFLOW_CUDA=OFF >/dev/null
 cmake --build build-fuzz -j"$jobs" --target "${build[@]}"
 bin=build-fuzz/tests/fuzz

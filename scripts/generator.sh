@@ -7,3 +7,9 @@
 cmake_generator() {
   if [ ! -f "$1/CMakeCache.txt" ] && command -v ninja >/dev/null 2>&1; then echo -GNinja; fi
 }
+
+# fast_linker: prints -DGRANFLOW_LLD=ON where LLVM's lld is installed (Debian lld, which
+# scripts/install_deps.sh --tests installs): C++ links about 3x faster (docs/reliability_ci.md).
+fast_linker() {
+  if command -v ld.lld >/dev/null 2>&1; then echo -DGRANFLOW_LLD=ON; fi
+}

@@ -17,6 +17,7 @@ packages=(build-essential cmake ninja-build libeigen3-dev libsundials-dev libnlo
 if [ "$tests" -eq 1 ]; then
   packages+=(libgtest-dev
              clang libclang-rt-dev  # clang + libFuzzer: scripts/fuzz.sh
+             lld                    # the test builds link with it (GRANFLOW_LLD, scripts/generator.sh)
              gfortran)              # the UMAT's Fortran calling-convention test (tests/umat)
   packages+=(pybind11-dev python3-dev python3-numpy python3-pytest)  # Python module: docs/python.md
   # optional MPI: ensembles and calibration over ranks (docs/mpm_ensembles.md); libsundials-dev

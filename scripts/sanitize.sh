@@ -14,7 +14,7 @@ start=$(date +%s)
 # file:line stacks. Against -O2 -g: about half the compile time, the tests about 10 % slower
 # (docs/reliability_ci.md).
 source scripts/generator.sh
-cmake -S . -B build-asan $(cmake_generator build-asan) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
+cmake -S . -B build-asan $(cmake_generator build-asan) $(fast_linker) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
       -DGRANFLOW_SANITIZE=ON -DGRANFLOW_CUDA=OFF -DGRANFLOW_TESTS=ON -DCMAKE_UNITY_BUILD=ON >/dev/null
 cmake --build build-asan -j"$jobs"
 built=$(date +%s)

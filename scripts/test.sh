@@ -13,7 +13,8 @@ cuda_arch=90 cuda_flags="-O3 -DNDEBUG" cuda_batches=OFF
 nvidia-smi -L >/dev/null 2>&1 || { cuda_arch=90-virtual; cuda_flags="-O0 -Xcicc -O0 -DNDEBUG"; cuda_batches=ON; }
 # Unity builds (CMAKE_UNITY_BUILD): the sources of a target compile in batches, so the headers
 # they share (Eigen, CLI11, GoogleTest) are compiled once per batch (docs/reliability_ci.md).
-scripts/build.sh -DGRANFLOW_TESTS=ON -DGRANFLOW_CUDA=ON -DGRANFLOW_PYTHON=ON -DGRANFLOW_MPI=ON -DGRANFLOW_GDAL=ON \
+source scripts/generator.sh  # fast_linker: lld where installed
+scripts/build.sh $(fast_linker) -DGRANFLOW_TESTS=ON -DGRANFLOW_CUDA=ON -DGRANFLOW_PYTHON=ON -DGRANFLOW_MPI=ON -DGRANFLOW_GDAL=ON \
                  -DCMAKE_CUDA_ARCHITECTURES=$cuda_arch -DCMAKE_CUDA_FLAGS_RELEASE="$cuda_flags" \
                  -DGRANFLOW_CUDA_KERNEL_BATCHES=$cuda_batches -DCMAKE_UNITY_BUILD=ON
 # ctest -j runs OpenMP tests side by side on few cores: threads spinning at barriers would wait on
