@@ -1,5 +1,4 @@
-// make_setup: the scene's checks and its grid, then its parts in order (seeding, node masks,
-// obstacles, force probes) and the tracked points.
+// make_setup: the scene's checks and grid, then its parts in order (seeding, node masks, obstacles, probes).
 #include <algorithm>
 #include <cmath>
 #include <limits>
