@@ -19,7 +19,7 @@
 
 #include <granflow/mpm/binning.hpp>
 
-#include "run/runner_common.hpp"
+#include "backend/runner_common.hpp"
 
 namespace granflow::mpm::cpu {
 

@@ -16,7 +16,7 @@
 #include <string>
 
 #include "cpu/cpu_runner.hpp"
-#include "run/slab_borders.hpp"
+#include "backend/slab_borders.hpp"
 
 namespace granflow::mpm::cpu {
 

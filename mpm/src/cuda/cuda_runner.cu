@@ -9,7 +9,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "run/runner_common.hpp"
+#include "backend/runner_common.hpp"
 
 namespace granflow::mpm {
 

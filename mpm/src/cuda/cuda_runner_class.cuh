@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "cuda_launch_config.cuh"
-#include "run/runner_common.hpp"
+#include "backend/runner_common.hpp"
 
 namespace granflow::mpm {
 namespace {

@@ -33,7 +33,7 @@
 #include "cuda_slabs.cuh"
 #include "cuda_span.cuh"
 #include "cuda_step.cuh"
-#include "run/runner_common.hpp"
+#include "backend/runner_common.hpp"
 
 namespace granflow::mpm {
 namespace {

@@ -34,7 +34,7 @@
 #include "cuda_particle_order.cuh"
 #include "cuda_runner_class.cuh"
 #include "cuda_span.cuh"
-#include "run/slab_borders.hpp"
+#include "backend/slab_borders.hpp"
 
 namespace granflow::mpm {
 namespace {

@@ -4,19 +4,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <sstream>
 #include <string>
+
+#include "scene/setup_common.hpp"
 
 namespace granflow::mpm::detail {
 namespace {
-
-[[noreturn]] void fail(const std::string& key, const std::string& msg) { throw SceneError(key, msg); }
-
-std::string fmt(double v) {
-  std::ostringstream os;
-  os << v;
-  return os.str();
-}
 
 // An obstacle's solid for node and point tests: whether x lies inside or on the surface (within
 // tol), and then the nearest face, its normal into the solid and its index (the part).

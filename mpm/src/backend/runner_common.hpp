@@ -264,7 +264,7 @@ auto dispatch_scalar(const SceneSetup& su, F& f) {
     if (su.members > 1 && (sc.dim != 2 || !su.has_boundary))
       throw SceneError("dimension", "ensembles are compiled for 2D scenes with a wall, a base or a gate");
     // A single run of several materials: with boundary code (a scene without walls has masks
-    // that hold no node, setup.cpp), in 2D and 3D.
+    // that hold no node, scene/node_masks.cpp), in 2D and 3D.
     if (sc.dim == 3) {
       GF_MPM_CASE_M(3, true, true)
     }
