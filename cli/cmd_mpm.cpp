@@ -444,7 +444,8 @@ void run_mpm(const MpmOptions& o) {
   if (s.times.span_steps > 0)
     std::printf("; in the run outside the spans %.2f s (run %.2f s less device %.2f s)", run_s - s.times.device, run_s,
                 s.times.device);
-  std::printf("\n");
+  std::printf("; in the loop: full frames %.2f s, handing frames to the writer %.2f s, waiting for it %.2f s, samples %.2f s\n",
+              s.host.full_frames, s.host.frame_handover, s.host.writer_wait, s.host.samples);
   if (!s.ok) throw std::runtime_error("run stopped: " + s.message);
 }
 

@@ -296,8 +296,14 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
   // particles, full diagnostics only for the tracked ones. Frames written to disk are full.
   Frame fr, full, last_good;
   double last_good_t = 0;
+  // seconds since t0, added to `into` (the loop's host times, HostTimes)
+  auto add_since = [](double& into, Clock::time_point t0) {
+    into += std::chrono::duration<double>(Clock::now() - t0).count();
+  };
   auto full_frame = [&]() -> const Frame& {
+    const auto t0 = Clock::now();
     runner.frame(full, true);
+    add_since(sum.host.full_frames, t0);
     if (full.body.empty()) {  // ids per point: the set-up's, the same in every frame
       full.body = su.point_body;
       full.material.assign(su.point_material.begin(), su.point_material.end());
@@ -315,6 +321,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     if (pending.valid()) pending.get();
   };
   auto sample = [&](double t, int stage) {
+    const auto t0 = Clock::now();
     settle();
     runner.frame(fr, false, su.tracked);
     forces.sample(t, t - t_release, runner);
@@ -327,6 +334,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     }
     last_good_t = t;
     const size_t row = sum.series.size() - 1;
+    add_since(sum.host.samples, t0);
     pending = std::async(std::launch::async, [&, row, t] {
       const Measures m = measure(fr, su, mass);
       std::vector<Measures> per_material;
@@ -346,19 +354,30 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
   // next frame or flush(); flush() before a checkpoint and at the end (an exception: its
   // destructor writes what was handed over).
   FrameWriter writer(sc.output.format, sc.output.fields);
-  auto write_frame = [&](const Frame& f, double t, const std::string& tag) {
+  // `spare`: a frame the loop no longer needs, moved to the writer instead of copied
+  auto write_frame = [&](const Frame& f, double t, const std::string& tag, Frame* spare = nullptr) {
     if (!files) return;
+    const auto t0 = Clock::now();
     char name[64];
     std::snprintf(name, sizeof name, "frame_%04d%s.vtu", frame_no++, tag.c_str());
     pvd.emplace_back(t, name);
     FrameJob job;
-    job.frame = f;
+    if (spare)
+      job.frame = std::move(*spare);
+    else
+      job.frame = f;
     job.path = opt.out_dir + "/" + name;
     if (std::string csv = forces.pressure_csv(); !csv.empty())
       job.beside.emplace_back(opt.out_dir + "/" + ForceRecorder::pressure_file(frame_no - 1), std::move(csv));
     job.index_path = opt.out_dir + "/frames.pvd";
     job.index = pvd;
     writer.write(std::move(job));
+    add_since(sum.host.frame_handover, t0);
+  };
+  auto flush_writer = [&] {
+    const auto t0 = Clock::now();
+    writer.flush();
+    add_since(sum.host.writer_wait, t0);
   };
 
   const auto wall0 = Clock::now();
@@ -425,7 +444,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
   };
   double next_ckpt = next_checkpoint_after(t);
   auto save = [&] {
-    writer.flush();  // the frames it lists are on disk before it (the writer syncs each)
+    flush_writer();  // the frames it lists are on disk before it (the writer syncs each)
     settle();
     Checkpoint c;
     c.scene_hash = opt.scene_hash;
@@ -549,7 +568,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
   settle();
   if (opt.progress) std::fprintf(stderr, "\n");
   const bool complete = sum.ok && !sum.interrupted;
-  if (complete && (pvd.empty() || pvd.back().first != t)) write_frame(full_frame(), t, "_final");
+  if (complete && (pvd.empty() || pvd.back().first != t)) write_frame(full_frame(), t, "_final", &full);
   sum.steps = step;
   sum.t_end = t;
   sum.wall_s = wall_before + elapsed();
@@ -566,7 +585,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
       write_profile_csv(opt.out_dir + "/profile_final.csv", free_surface(sum.ok ? fr : last_good, su));
       maps.write_maps(opt.out_dir, sum.ok ? fr : last_good);  // the last sample's frame: maxima include it
     }
-    writer.flush();  // before the checkpoint goes: a frame that fails leaves it to restart from
+    flush_writer();  // before the checkpoint goes: a frame that fails leaves it to restart from
     if (complete && t >= t_total * (1 - 1e-12)) {  // nothing left to continue
       std::error_code ec;
       std::filesystem::remove(ckpt_path, ec);

@@ -79,6 +79,13 @@ struct ConsolidationCheck {
 // From a full frame at the end of the first stage.
 ConsolidationCheck check_consolidation(const Frame& fr, const SceneSetup& su);
 
+// Host seconds of the time loop outside the steps (granflow mpm's `host time` line): full frames
+// gathered (device to host, diagnostics), frames handed to the writer (the copy), waits for
+// the writer (before checkpoints and at the end) and the samples' main-thread part.
+struct HostTimes {
+  double full_frames = 0, frame_handover = 0, writer_wait = 0, samples = 0;
+};
+
 struct RunSummary {
   bool ok = true;
   std::string message;
@@ -90,6 +97,7 @@ struct RunSummary {
   std::vector<TrackRow> tracks;
   ConsolidationCheck consolidation;
   PhaseTimes times;
+  HostTimes host;
   UpdateStats stats;
   std::string device;
   int interrupted = 0;     // the interrupt value that stopped the run (0: not interrupted)
