@@ -4,7 +4,7 @@
 #include <signal.h>
 
 #include <granflow/io/output.hpp>
-#include <granflow/mpm/driver.hpp>
+#include <granflow/mpm/output.hpp>
 
 namespace granflow::mpm {
 

@@ -4,7 +4,7 @@
 #include <sstream>
 
 #include <granflow/io/output.hpp>
-#include <granflow/mpm/driver.hpp>
+#include <granflow/mpm/measures.hpp>
 
 namespace granflow::mpm {
 

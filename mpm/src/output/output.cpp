@@ -3,12 +3,19 @@
 #include <cstdint>
 #include <cstring>
 #include <ostream>
+#include <sstream>
+#include <string>
 
 #include <granflow/io/output.hpp>
-#include <granflow/mpm/driver.hpp>
+#include <granflow/mpm/output.hpp>
 
 namespace granflow::mpm {
 namespace {
+
+// Series and profiles: synced with the checkpoint or the manifest, like the frames.
+void write_buffered(const std::string& path, const std::string& text) {
+  io::write_file(path, text, io::Durability::Buffered);
+}
 
 bool little_endian() {
   const std::uint16_t one = 1;
@@ -248,6 +255,32 @@ void write_pvd(const std::string& path, const std::vector<std::pair<double, std:
     os << "  </Collection>\n</VTKFile>\n";
   }
   file.commit();
+}
+
+void write_series_csv(const std::string& dir, const Scene& sc, const std::vector<SeriesRow>& series,
+                      const std::vector<TrackRow>& tracks) {
+  std::ostringstream a;
+  a.precision(8);
+  a << "t,t_flow,stage,runout,height,max_speed,kinetic_energy,mean_T,max_T\n";
+  for (const auto& r : series)
+    a << r.t << ',' << r.t_flow << ',' << r.stage << ',' << r.m.runout << ',' << r.m.height << ',' << r.m.max_speed
+      << ',' << r.m.kinetic_energy << ',' << r.m.mean_T << ',' << r.m.max_T << '\n';
+  write_buffered(dir + "/runout.csv", a.str());
+  std::ostringstream b;
+  b.precision(8);
+  b << "t,t_flow,name,x,y,vx,vy,p,q,eps_pd,T,eta_c,K_col\n";
+  for (const auto& r : tracks)
+    b << r.t << ',' << r.t_flow << ',' << sc.tracks[r.track].name << ',' << r.x << ',' << r.y << ',' << r.vx << ','
+      << r.vy << ',' << r.p << ',' << r.q << ',' << r.eps_pd << ',' << r.T << ',' << r.eta_c << ',' << r.K_col << '\n';
+  write_buffered(dir + "/tracked.csv", b.str());
+}
+
+void write_profile_csv(const std::string& path, const std::vector<std::pair<double, double>>& surface) {
+  std::ostringstream c;
+  c.precision(8);
+  c << "x,surface_y\n";
+  for (const auto& [x, y] : surface) c << x << ',' << y << '\n';
+  write_buffered(path, c.str());
 }
 
 }  // namespace granflow::mpm

@@ -9,8 +9,10 @@
 #include <utility>
 #include <vector>
 
-#include "driver.hpp"
+#include "forces.hpp"
 #include "maps.hpp"
+#include "measures.hpp"
+#include "runner.hpp"
 
 namespace granflow::mpm {
 

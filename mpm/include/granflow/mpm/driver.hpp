@@ -10,6 +10,8 @@
 #include <granflow/io/output.hpp>
 
 #include "forces.hpp"
+#include "measures.hpp"
+#include "output.hpp"
 #include "runner.hpp"
 
 namespace granflow::mpm {
@@ -29,55 +31,6 @@ struct RunOptions {
   const volatile std::sig_atomic_t* interrupt = nullptr;
   long max_span = 10000;  // most steps queued without a host round-trip (1: one per step)
 };
-
-// Run-out and height of a frame, measured along the scene's run-out polyline.
-struct Measures {
-  double runout = 0, height = 0, max_speed = 0, kinetic_energy = 0, mean_T = 0, max_T = 0;
-};
-// material >= 0: of that material's points only (su.point_material), for scenes of several.
-Measures measure(const Frame& fr, const SceneSetup& su, const std::vector<double>& mass, int material = -1);
-// Of the runs of consecutive bins of positive weight, the one of the largest total weight (the
-// first of equal ones): its first and last bin; {0, -1} when every bin is empty. The run-out's
-// deposit (point counts) and a gauge's flow (mass) are such runs.
-std::pair<long, long> heaviest_run(const std::vector<double>& weight);
-// Free surface: for bins of one grid cell along x, the highest particle top (x, y).
-std::vector<std::pair<double, double>> free_surface(const Frame& fr, const SceneSetup& su);
-
-struct SeriesRow {
-  double t, t_flow;
-  int stage;
-  Measures m;
-};
-struct TrackRow {
-  double t, t_flow;
-  size_t track;
-  double x, y, vx, vy, p, q, eps_pd, T, eta_c, K_col;
-};
-
-// One sample of a gauge (Scene::gauges): the contiguous run of points along the line that holds
-// the most mass, within width/2 of it. depth: its extent along the line; u: the mass-weighted
-// velocity across the line (positive to the right of from -> to), u_along: along it; density:
-// its mass over depth x width; mass_flux: rho h u [kg/(m s)]. All zero where no point is near.
-struct GaugeRow {
-  double t, t_flow;
-  size_t gauge;
-  double depth, u, u_along, density, mass_flux;
-  long points;
-};
-std::vector<GaugeRow> measure_gauges(const Frame& fr, const SceneSetup& su, const std::vector<double>& mass,
-                                     double t, double t_flow);
-// dir/gauges.csv (written only for a scene with gauges).
-void write_gauges_csv(const std::string& dir, const Scene& sc, const std::vector<GaugeRow>& rows);
-
-// Vertical stress against rho g depth at the end of the first stage, away from the walls.
-struct ConsolidationCheck {
-  bool done = false;
-  double max_rel_error = 0;      // over depth bins below the top layer, middle half of the body
-  double base_sigma_v = 0, base_rho_g_h = 0;
-};
-
-// From a full frame at the end of the first stage.
-ConsolidationCheck check_consolidation(const Frame& fr, const SceneSetup& su);
 
 // Host seconds of the time loop outside the steps (granflow mpm's `host time` line): full frames
 // gathered (device to host, diagnostics), frames handed to the writer (the copy), waits for
@@ -115,12 +68,6 @@ RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt);
 // estimate (steps queued past the end do nothing).
 long span_length(const Span& s, long cap);
 
-// The CSVs a run writes: dir/runout.csv and dir/tracked.csv (docs/mpm.md lists the columns),
-// and a free surface (x, surface_y).
-void write_series_csv(const std::string& dir, const Scene& sc, const std::vector<SeriesRow>& series,
-                      const std::vector<TrackRow>& tracks);
-void write_profile_csv(const std::string& path, const std::vector<std::pair<double, double>>& surface);
-
 // Throughput of the first stage after a warm-up (granflow bench mpm).
 // The timed steps run as one span (or step by step, a host round-trip each: the old loop);
 // the per-phase split comes from a separate timed span where the backend does not time its
@@ -139,13 +86,5 @@ struct BenchResult {
 BenchResult bench(const SceneSetup& su, Runner& runner, const BenchOptions& opt);
 // The figures as printed by both commands (scene, device, options, times per step).
 std::string bench_report(const SceneSetup& su, const Runner& runner, const BenchOptions& opt, const BenchResult& r);
-
-// Writers, through io::AtomicFile: a file appears under its name only complete; a failure
-// (io::OutputError) leaves the previous file.
-// `fields`: the point arrays besides position (scene.hpp frame_field_names); empty: all.
-// FrameFormat::Raw writes the arrays from the frame's vectors in pieces, with no whole copy.
-void write_vtu(const std::string& path, const Frame& fr, FrameFormat format, const std::vector<std::string>& fields = {},
-               io::Durability durability = io::Durability::Buffered);
-void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& frames);
 
 }  // namespace granflow::mpm
