@@ -1,4 +1,5 @@
-// VTK XML UnstructuredGrid of vertices (one per material point) and the PVD index.
+// The run's files: VTK XML UnstructuredGrid frames (one vertex per material point), the PVD
+// index, the series CSVs and the final profile.
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
