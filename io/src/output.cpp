@@ -232,6 +232,14 @@ std::optional<CommittedFile> committed_file(const std::string& path) {
   return it->second;
 }
 
+std::string csv_field(std::string_view text, bool always) {
+  const bool edge = !text.empty() && (text.front() == ' ' || text.back() == ' ');
+  if (!always && !edge && text.find_first_of(",\"\r\n") == std::string_view::npos) return std::string(text);
+  std::string q = "\"";
+  for (char c : text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
 std::string temporary_name(const std::string& path) { return path + ".tmp-" + std::to_string(::getpid()); }
 
 bool is_temporary_name(const std::string& name) {

@@ -85,6 +85,20 @@ Checkpoint sample_checkpoint(long n, int dim) {
   s.consolidation = {true, 0.006, 1201.9, 1201.0};
   s.stats = {1000, 2670, 1, 311, 2, 3};
   s.wall_s = 12.5;
+  auto sums = [&] {
+    ForceSums f;
+    for (double* x : {&f.impulse[0], &f.impulse[1], &f.impulse[2], &f.normal, &f.tangential, &f.moment[0],
+                      &f.moment[1], &f.moment[2], &f.max_force, &f.time})
+      *x = u(rng);
+    f.steps = 17;
+    return f;
+  };
+  for (int k = 0; k < 3; ++k) s.forces.rows.push_back({0.01 * k, 0.01 * k - 0.05, k % 2, k - 1, sums()});
+  for (BoundaryForces* f : {&s.forces.pending, &s.forces.last}) {  // the last sample's (format version 5)
+    f->parts = {sums(), sums()};
+    f->boundaries = {sums()};
+    fill(f->node_impulse, 2 * dim);
+  }
   if (n > 0 && dim == 3) {  // a terrain run's maps (format version 2)
     s.maps.max_speed = {0.5, 1.25, 0.0};
     s.maps.max_depth = {0.01, 0.2, 0.0};
@@ -284,8 +298,25 @@ TEST(MpmCheckpoint, RefusesAnotherSceneOrASetUpItDoesNotFit) {
   const std::vector<GaugeRow> gauges = c.loop.gauges;  // rows of gauges this scene does not have
   c.loop.gauges.clear();
   c.loop.material_series.clear();  // measures of two materials: the scene has one
+  const ForcesState forces = c.loop.forces;  // of boundaries this scene does not measure
+  c.loop.forces = {};
   c.scene_hash = 7;
   EXPECT_NO_THROW(check_checkpoint(c, su, 7));
+  for (int which = 0; which < 2; ++which) {
+    Checkpoint f = c;
+    if (which == 0)
+      f.loop.forces.rows = forces.rows;
+    else
+      f.loop.forces.last = forces.last;
+    try {
+      check_checkpoint(f, su, 7);
+      FAIL() << "accepted a checkpoint with force sums of boundaries the scene does not have";
+    } catch (const CheckpointError& e) {
+      EXPECT_NE(std::string(e.what()).find(which == 0 ? "force row of boundary" : "last force sample of 2 parts"),
+                std::string::npos)
+          << e.what();
+    }
+  }
   Checkpoint g = c;
   g.loop.gauges = gauges;
   try {

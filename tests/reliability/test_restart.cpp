@@ -289,3 +289,54 @@ TEST(MpmRestartProcess, SecondSigintDuringTheCheckpointWriteKeepsIt) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   expect_same_files(w, "ref", "o");
 }
+
+namespace {
+
+// A run stopped after a checkpoint that lies at a stage end (--checkpoint-every 0.05, stage
+// end 0.1, --stop-after 0.12), then restarted, against the same run uninterrupted: every file
+// byte for byte, manifest included (issue 50: the stage frame's pressure profile was lost).
+void expect_stage_end_restart_equals_uninterrupted(const std::string& name, const std::string& scene,
+                                                  const std::vector<std::string>& extra) {
+  Work w(name);
+  w.write("scene.toml", scene);
+  std::vector<std::string> opts = {"--checkpoint-every", "0.05"};
+  opts.insert(opts.end(), extra.begin(), extra.end());
+  const Outcome ref = w.run("ref", opts);
+  ASSERT_EQ(ref.exit_code, 0) << ref.err;
+  std::vector<std::string> first = opts;
+  first.insert(first.end(), {"--stop-after", "0.12"});
+  const Outcome a = w.run("o", first);
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  std::vector<std::string> again = opts;
+  again.push_back("--restart");
+  const Outcome r = w.run("o", again);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("restarting at t = 0.1 s"), std::string::npos) << "not a stage-end checkpoint: " << r.err;
+  expect_same_files(w, "ref", "o");
+}
+
+std::string source_file(const std::string& rel) { return slurp(std::string(GRANFLOW_SOURCE_DIR) + "/" + rel); }
+
+}  // namespace
+
+// 2D: an obstacle (pressure profiles beside each frame), a gauge, two slabs.
+TEST(MpmRestartProcess, CheckpointAtAStageEndRestartsToTheSameFiles2D) {
+  std::string s = source_file("mpm/scenes/column_obstacle_ci.toml");
+  s = edit(s, "duration = 0.4", "duration = 0.04");
+  s = edit(s, "times = [0.05, 0.25, 0.4]", "times = [0.01, 0.04]");
+  s += "\n[[gauge]]\nname = \"behind, the wall\"\nfrom = [0.22, 0.0]\nto = [0.22, 0.12]\n";
+  expect_stage_end_restart_equals_uninterrupted("stage_end_2d", s, {"--devices", "2"});
+}
+
+// 3D: terrain maps and deposit series, a box obstacle, two slabs.
+TEST(MpmRestartProcess, CheckpointAtAStageEndRestartsToTheSameFiles3D) {
+  const std::string dir = std::string(GRANFLOW_SOURCE_DIR) + "/mpm/scenes/valley/";
+  std::string s = source_file("mpm/scenes/valley_ci.toml");
+  s = edit(s, "\"valley/ground.asc\"", "\"" + dir + "ground.asc\"");
+  s = edit(s, "\"valley/top.asc\"", "\"" + dir + "top.asc\"");
+  s = edit(s, "name = \"slide\"\nduration = 0.2", "name = \"start\"\nduration = 0.1\n[[stage]]\nname = \"on\"\nduration = 0.04");
+  s = edit(s, "stage_frames = false", "stage_frames = true");
+  s = edit(s, "times = [0.1, 0.2]", "times = [0.02, 0.04]");  // from the last stage's start
+  s += "\n[[obstacle]]\nname = \"block\"\nkind = \"box\"\nmin = [0.70, 0.0, 0.06]\nmax = [0.76, 0.08, 0.14]\n";
+  expect_stage_end_restart_equals_uninterrupted("stage_end_3d", s, {"--devices", "2"});
+}

@@ -15,7 +15,8 @@ namespace granflow::mpm {
 namespace {
 
 constexpr char kMagic[8] = {'G', 'F', 'M', 'P', 'M', 'C', 'K', 'P'};
-constexpr std::uint32_t kVersion = 4;  // 2: the maps of terrain runs; 3: boundary forces; 4: gauges, per-material series
+constexpr std::uint32_t kVersion = 5;  // 2: the maps of terrain runs; 3: boundary forces; 4: gauges, per-material series;
+                                       // 5: the last sample's force sums
 constexpr std::uint32_t kByteOrder = 0x01020304;
 constexpr size_t kHeader = 8 + 4 + 4 + 8 + 8;
 
@@ -217,11 +218,13 @@ std::string encode_checkpoint(const Checkpoint& c) {
     w.pod(static_cast<std::int32_t>(r.part));
     write_sums(w, r.sums);
   }
-  for (const auto* v : {&s.forces.pending.parts, &s.forces.pending.boundaries}) {
-    w.pod(static_cast<std::uint64_t>(v->size()));
-    for (const ForceSums& f : *v) write_sums(w, f);
+  for (const BoundaryForces* f : {&s.forces.pending, &s.forces.last}) {
+    for (const auto* v : {&f->parts, &f->boundaries}) {
+      w.pod(static_cast<std::uint64_t>(v->size()));
+      for (const ForceSums& x : *v) write_sums(w, x);
+    }
+    w.doubles(f->node_impulse);
   }
-  w.doubles(s.forces.pending.node_impulse);
 
   std::string& b = w.bytes();
   const std::uint64_t payload = b.size() - kHeader;
@@ -341,9 +344,11 @@ Checkpoint decode_checkpoint(std::string_view b) {
     row.sums = read_sums(r);
     s.forces.rows.push_back(row);
   }
-  for (auto* v : {&s.forces.pending.parts, &s.forces.pending.boundaries})
-    for (std::uint64_t k = 0, n = r.count(kSumsBytes, "force sums"); k < n; ++k) v->push_back(read_sums(r));
-  s.forces.pending.node_impulse = r.doubles("forces.node_impulse");
+  for (BoundaryForces* f : {&s.forces.pending, &s.forces.last}) {
+    for (auto* v : {&f->parts, &f->boundaries})
+      for (std::uint64_t k = 0, n = r.count(kSumsBytes, "force sums"); k < n; ++k) v->push_back(read_sums(r));
+    f->node_impulse = r.doubles("forces.node_impulse");
+  }
   if (r.at() != b.size() - 8) Reader::fail(std::to_string(b.size() - 8 - r.at()) + " unread bytes after the state");
   if (s.series.empty()) Reader::fail("no run-out sample (a run samples t = 0 first)");
   return c;
@@ -402,6 +407,17 @@ void check_checkpoint(const Checkpoint& c, const SceneSetup& su, std::uint64_t s
   if (why.empty() && s.material_series.size() != per_row * s.series.size())
     why = std::to_string(s.material_series.size()) + " per-material measures for " + std::to_string(s.series.size()) +
           " samples of " + std::to_string(sc.material_count()) + " materials";
+  for (const ForceRow& r : s.forces.rows)
+    if (why.empty() && (r.boundary < 0 || size_t(r.boundary) >= su.force_boundaries.size() || r.part < -1 ||
+                        r.part >= static_cast<long>(su.force_parts.size())))
+      why = "force row of boundary " + std::to_string(r.boundary) + ", part " + std::to_string(r.part);
+  const BoundaryForces& last = s.forces.last;
+  const bool none = last.parts.empty() && last.boundaries.empty() && last.node_impulse.empty();
+  if (why.empty() && !none &&
+      (last.parts.size() != su.force_parts.size() || last.boundaries.size() != su.force_boundaries.size() ||
+       last.node_impulse.size() != size_t(sc.dim) * su.probes.size()))
+    why = "last force sample of " + std::to_string(last.parts.size()) + " parts and " +
+          std::to_string(last.node_impulse.size()) + " probe sums";
   if (why.empty()) {
     const TerrainMaps maps(su);
     if (s.maps.max_speed.size() != maps.state().max_speed.size())

@@ -62,8 +62,8 @@ void ForceRecorder::write_csv(const std::string& dir) const {
   for (const ForceRow& r : st_.rows) {
     const ForceSums& s = r.sums;
     const double inv = s.time > 0 ? 1.0 / s.time : 0.0;
-    os << r.t << ',' << r.t_flow << ',' << su_->force_boundaries[r.boundary] << ','
-       << (r.part < 0 ? "total" : su_->force_parts[r.part].name);
+    os << r.t << ',' << r.t_flow << ',' << io::csv_field(su_->force_boundaries[r.boundary]) << ','
+       << (r.part < 0 ? "total" : io::csv_field(su_->force_parts[r.part].name));
     for (int d = 0; d < D; ++d) os << ',' << s.impulse[d] * inv;
     os << ',' << s.max_force << ',' << s.normal * inv << ',' << s.tangential * inv;
     for (int d = D == 2 ? 2 : 0; d < 3; ++d) os << ',' << s.moment[d] * inv;
@@ -109,7 +109,7 @@ std::string ForceRecorder::pressure_csv() const {
       const double fn = fx * pr.n[0] + fy * pr.n[1];
       const double ft = fx * (-pr.n[1]) + fy * pr.n[0];
       const double s = ((pr.x[0] - x0) * dx + (pr.x[1] - y0) * dy) / len;
-      os << name << ',' << part.name << ',' << pr.x[0] << ',' << pr.x[1] << ',' << s << ',' << fn / h << ','
+      os << io::csv_field(name) << ',' << io::csv_field(part.name) << ',' << pr.x[0] << ',' << pr.x[1] << ',' << s << ',' << fn / h << ','
          << ft / h << '\n';
     }
   }
@@ -212,12 +212,14 @@ std::vector<ForcePeak> ForceRecorder::peaks() const {
 ForcesState ForceRecorder::state(Runner& runner) const {
   ForcesState s;
   s.rows = st_.rows;
+  s.last = last_;
   if (active_) runner.take_forces(s.pending, true);
   return s;
 }
 
 void ForceRecorder::restore(const ForcesState& s, Runner& runner) {
   st_.rows = s.rows;
+  last_ = s.last;
   if (active_) runner.restore_forces(s.pending);
 }
 

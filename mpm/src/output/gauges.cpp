@@ -61,7 +61,7 @@ void write_gauges_csv(const std::string& dir, const Scene& sc, const std::vector
   a.precision(8);
   a << "t [s],t_flow [s],gauge,depth [m],u [m/s],u_along [m/s],density [kg/m^3],mass_flux [kg/(m s)],points\n";
   for (const GaugeRow& r : rows)
-    a << r.t << ',' << r.t_flow << ',' << sc.gauges[r.gauge].name << ',' << r.depth << ',' << r.u << ',' << r.u_along
+    a << r.t << ',' << r.t_flow << ',' << io::csv_field(sc.gauges[r.gauge].name) << ',' << r.depth << ',' << r.u << ',' << r.u_along
       << ',' << r.density << ',' << r.mass_flux << ',' << r.points << '\n';
   io::write_file(dir + "/gauges.csv", a.str(), io::Durability::Buffered);
 }

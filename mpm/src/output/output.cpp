@@ -271,7 +271,7 @@ void write_series_csv(const std::string& dir, const Scene& sc, const std::vector
   b.precision(8);
   b << "t,t_flow,name,x,y,vx,vy,p,q,eps_pd,T,eta_c,K_col\n";
   for (const auto& r : tracks)
-    b << r.t << ',' << r.t_flow << ',' << sc.tracks[r.track].name << ',' << r.x << ',' << r.y << ',' << r.vx << ','
+    b << r.t << ',' << r.t_flow << ',' << io::csv_field(sc.tracks[r.track].name) << ',' << r.x << ',' << r.y << ',' << r.vx << ','
       << r.vy << ',' << r.p << ',' << r.q << ',' << r.eps_pd << ',' << r.T << ',' << r.eta_c << ',' << r.K_col << '\n';
   write_buffered(dir + "/tracked.csv", b.str());
 }

@@ -85,6 +85,10 @@ std::optional<CommittedFile> committed_file(const std::string& path);
 // The whole file at once, through an AtomicFile.
 void write_file(const std::string& path, std::string_view bytes, Durability durability = Durability::Sync);
 
+// A text cell of a CSV row (RFC 4180): quoted, with inner quotes doubled, when it holds a comma,
+// a quote, a line break or edge spaces, or always with `always`; as given otherwise.
+std::string csv_field(std::string_view text, bool always = false);
+
 // The temporary name a write uses ("NAME.tmp-PID"); is_temporary_name() also knows "NAME.tmp".
 std::string temporary_name(const std::string& path);
 bool is_temporary_name(const std::string& file_name);

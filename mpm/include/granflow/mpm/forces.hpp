@@ -18,11 +18,12 @@ struct ForceRow {
   ForceSums sums;
 };
 
-// What a restart continues (the checkpoint payload): the rows so far and the runner's sums
-// since the last sample.
+// What a restart continues (the checkpoint payload): the rows so far, the runner's sums since
+// the last sample, and the last sample's sums (a frame right after a restart at a sample, as
+// at a stage end, writes its pressure profile from them).
 struct ForcesState {
   std::vector<ForceRow> rows;
-  BoundaryForces pending;
+  BoundaryForces pending, last;
 };
 
 // Per boundary over a run: the largest single-step force and the total impulse (ensemble
