@@ -157,12 +157,6 @@ auto allocating(const std::string& what, const std::string& estimate, F&& f) -> 
   }
 }
 
-std::string csv_quote(const std::string& s) {
-  std::string q = "\"";
-  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return q + "\"";
-}
-
 std::string summary_csv(const mpm::EnsembleDesign& d, const mpm::Scene& sc, const mpm::EnsembleSummary& s) {
   std::ostringstream os;
   os.precision(10);
@@ -178,8 +172,9 @@ std::string summary_csv(const mpm::EnsembleDesign& d, const mpm::Scene& sc, cons
   const char* f_unit = sc.dim == 2 ? "N/m" : "N";
   const char* i_unit = sc.dim == 2 ? "N s/m" : "N s";
   for (const std::string& o : obstacles)
-    os << ',' << csv_quote(o + " peak [" + f_unit + "]") << ',' << csv_quote(o + " impulse [" + i_unit + "]") << ','
-       << csv_quote(o + " step peak [" + f_unit + "]");
+    os << ',' << io::csv_field(o + " peak [" + f_unit + "]", true) << ','
+       << io::csv_field(o + " impulse [" + i_unit + "]", true) << ','
+       << io::csv_field(o + " step peak [" + f_unit + "]", true);
   os << ",max_speed,steps,t_end,wall_s,message\n";
   for (size_t k = 0; k < s.members.size(); ++k) {
     const mpm::MemberSummary& m = s.members[k];
@@ -199,7 +194,7 @@ std::string summary_csv(const mpm::EnsembleDesign& d, const mpm::Scene& sc, cons
       else
         os << ",,,";
     }
-    os << ',' << m.max_speed << ',' << m.steps << ',' << m.t_end << ',' << m.wall_s << ',' << csv_quote(m.message)
+    os << ',' << m.max_speed << ',' << m.steps << ',' << m.t_end << ',' << m.wall_s << ',' << io::csv_field(m.message, true)
        << '\n';
   }
   return os.str();

@@ -16,6 +16,7 @@ Without matplotlib it prints a message and exits 0 (PNG output is optional).
 """
 import argparse
 import base64
+import csv
 import os
 import struct
 import sys
@@ -175,9 +176,9 @@ def main():
             save_png(fig, os.path.join(outdir, "%s_%s.png" % (os.path.splitext(f)[0], field)), 130)
             plt.close(fig)
             written += 1
-    csv = os.path.join(a.dir, "runout.csv")
-    if os.path.exists(csv):
-        rows = [l.strip().split(",") for l in open(csv)][1:]
+    runout = os.path.join(a.dir, "runout.csv")
+    if os.path.exists(runout):
+        rows = [l.strip().split(",") for l in open(runout)][1:]
         t = [float(r[1]) for r in rows]
         fig, ax = plt.subplots(figsize=(6, 3.5))
         ax.plot(t, [float(r[3]) for r in rows], label="run-out")
@@ -192,7 +193,8 @@ def main():
         written += 1
     forces = os.path.join(a.dir, "obstacle_forces.csv")
     if os.path.exists(forces):  # the force history of each obstacle (else of every boundary)
-        lines = [l.rstrip("\n").split(",") for l in open(forces)]
+        with open(forces, newline="") as f:  # names may be quoted (commas, line breaks)
+            lines = list(csv.reader(f))
         head, rows = lines[0], [r for r in lines[1:] if r[3] == "total"]
         col = {name.split(" [")[0]: k for k, name in enumerate(head)}
         unit = head[col["Fx"]].split("[")[1].rstrip("]")

@@ -174,7 +174,7 @@ void write_test_report(const TestReport& report, const io::ParameterSet& fitted,
   tc << "test,role,path,e0,e0_fitted,peak_q,rms_q_rel,rms_p_rel,e_rms,e_max,eps_v_rms,eps_v_max,min_p_ratio_data,"
         "min_p_ratio_model,failure\n";
   for (const TestMetrics& t : report.tests)
-    tc << t.test << "," << t.role << "," << t.path << "," << cell(t.e0) << "," << (t.e0_fitted ? 1 : 0) << ","
+    tc << io::csv_field(t.test) << "," << t.role << "," << t.path << "," << cell(t.e0) << "," << (t.e0_fitted ? 1 : 0) << ","
        << cell(t.peak_q) << "," << cell(t.rms_q) << "," << cell(t.rms_p) << "," << cell(t.e_rms) << ","
        << cell(t.e_max) << "," << cell(t.eps_v_rms) << "," << cell(t.eps_v_max) << "," << cell(t.min_p_data) << ","
        << cell(t.min_p_model) << "," << quote(t.failure) << "\n";
@@ -182,7 +182,7 @@ void write_test_report(const TestReport& report, const io::ParameterSet& fitted,
   cc << "test,role,data_column,model_output,abscissa,x,data,model\n";
   for (const TestCurve& c : report.curves)
     for (std::size_t i = 0; i < c.x.size(); ++i)
-      cc << c.test << "," << c.role << "," << c.data_column << "," << c.model_output << "," << c.abscissa << ","
+      cc << io::csv_field(c.test) << "," << c.role << "," << io::csv_field(c.data_column) << "," << c.model_output << "," << c.abscissa << ","
          << cell(c.x[i]) << "," << cell(c.data[i]) << "," << cell(c.model[i]) << "\n";
   const fs::path d(dir);
   io::write_file((d / "tests.csv").string(), tc.str(), io::Durability::Buffered);

@@ -59,7 +59,7 @@ void write_series_csv(const std::string& dir, const Scene& sc, const RunSummary&
       for (size_t k = 0; k < nm; ++k) {
         const SeriesRow& r = sum.series[i];
         const Measures& m = sum.material_series[i * nm + k];
-        c << r.t << ',' << r.t_flow << ',' << r.stage << ',' << sc.material_at(static_cast<int>(k)).label << ','
+        c << r.t << ',' << r.t_flow << ',' << r.stage << ',' << io::csv_field(sc.material_at(static_cast<int>(k)).label) << ','
           << m.runout << ',' << m.height << ',' << m.max_speed << ',' << m.kinetic_energy << ',' << m.mean_T << ','
           << m.max_T << '\n';
       }
@@ -161,8 +161,9 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
   auto write_frame = [&](const Frame& f, double t, const std::string& tag, Frame* spare = nullptr) {
     if (!files) return;
     const auto t0 = Clock::now();
-    char name[64];
-    std::snprintf(name, sizeof name, "frame_%04d%s.vtu", frame_no++, tag.c_str());
+    char number[16];
+    std::snprintf(number, sizeof number, "%04d", frame_no++);
+    const std::string name = "frame_" + std::string(number) + tag + ".vtu";
     pvd.emplace_back(t, name);
     FrameJob job;
     if (spare)
