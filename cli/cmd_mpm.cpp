@@ -86,19 +86,7 @@ void add_override_options(CLI::App* cmd, mpm::SceneOverrides& ov) {
   cmd->add_option_function<std::vector<std::string>>(
          "--params",
          [&ov](const std::vector<std::string>& given) {
-           for (const std::string& v : given) {
-             const auto eq = v.find('=');
-             const bool named = eq != std::string::npos && eq > 0 &&
-                                v.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") == eq;
-             if (named) {
-               ov.material_params.push_back(v);
-             } else {
-               if (!ov.params.empty())
-                 throw io::InputError("--params '" + v + "': a second set for the scene's material (first: '" +
-                                      ov.params + "'); name materials with NAME=SET");
-               ov.params = v;
-             }
-           }
+           for (const std::string& v : given) mpm::add_params(ov, v);
          },
          "parameter set instead of the scene's material.parameters: a name under data/params or a TOML "
          "file (as granflow element --params); NAME=SET for the [[material]] named NAME (repeatable)")
@@ -391,6 +379,10 @@ void run_mpm(const MpmOptions& o) {
     std::printf("force on %s: peak %.4g %s (mean over %g s) at t = %.4g s, impulse %.4g %s; largest single step %.4g %s\n",
                 f.boundary.c_str(), f.peak, sc.dim == 2 ? "N/m" : "N", sc.output.series_dt, f.t_peak, f.impulse,
                 sc.dim == 2 ? "N s/m" : "N s", f.step_peak, sc.dim == 2 ? "N/m" : "N");
+  if (s.forces.size() > 1)
+    std::printf("forces: a node two boundaries hold counts for the first of the obstacles, the walls (each in scene "
+                "order), the base, the terrain: a floor between walls misses what its corner nodes carry "
+                "(docs/mpm_obstacles.md)\n");
   std::printf("output: %s (frames.pvd, runout.csv, tracked.csv, profile_final.csv%s%s%s)\n", out.c_str(),
               sc.dim == 3 && sc.terrain ? ", deposit.csv, maps/" : "",
               s.forces.empty() ? "" : (sc.obstacles.empty() ? ", obstacle_forces.csv" : ", obstacle_forces.csv, obstacles.vtu"),

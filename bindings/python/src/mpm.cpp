@@ -51,7 +51,13 @@ py::dict mpm_run(py::handle scene, py::handle params, py::handle overrides, cons
     throw io::InputError("mpm: stop_after = " + std::to_string(stop_after) +
                          ": must be a finite time [s] (> 0 stops there, <= 0 runs the whole scene)");
   mpm::SceneOverrides ov;
-  if (!params.is_none()) ov.params = path_arg(params, "params");
+  // one set (name or path) or NAME=SET strings for a scene's [[material]] tables, as --params
+  if (!params.is_none()) {
+    if (py::isinstance<py::str>(params) || py::hasattr(params, "__fspath__"))
+      mpm::add_params(ov, path_arg(params, "params"));
+    else
+      for (const std::string& p : strings_arg(params, "params")) mpm::add_params(ov, p);
+  }
   ov.sets = strings_arg(overrides, "overrides");
   if (backend != "cpu" && backend != "cuda")
     throw io::InputError("mpm: backend '" + backend + "': expected cpu or cuda");
@@ -191,7 +197,8 @@ void register_mpm(py::module_& m) {
         py::arg("progress") = false,
         R"(Runs an MPM scene (mpm/scenes/*.toml) as `granflow mpm SCENE --no-png` does, writing no files.
 
-params      parameter set instead of material.parameters (name or path, as --params)
+params      parameter set instead of material.parameters (name or path, as --params), or
+            "NAME=SET" strings (one or a list) for the scene's [[material]] tables
 overrides   KEY=VALUE strings, scene or parameter-set keys (as --set), e.g. "grid.h=0.02"
 backend     "cpu" (the OpenMP twin; OMP_NUM_THREADS threads) or "cuda"
 precision   "fp64", "mixed" or "fp32" instead of solver.precision

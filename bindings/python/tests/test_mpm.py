@@ -71,6 +71,7 @@ def test_gauges_materials_and_forces_match_the_cli(cli, tmp_path):
     wall = got["forces"]["low wall"]
     assert 0 < wall["peak"] <= wall["step_peak"] and wall["impulse"] > 0
     assert "force on low wall: peak" in proc.stdout
+    assert "forces: a node two boundaries hold counts for the first of the obstacles, the walls" in proc.stdout
     last = {m: got["materials"]["runout"][got["materials"]["material"] == m][-1] for m in ("a", "b")}
     for m, runout in last.items():  # the CLI's closing lines per material
         assert f"material {m}: final run-out {runout:.4f} m" in proc.stdout
@@ -132,3 +133,28 @@ def test_ctrl_c_stops_a_run_and_restores_pythons_handler():
         granflow.mpm(SCENE)  # about a minute to the end
     assert time.time() - t0 < 10
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_params_names_a_material_as_the_cli_does(cli, tmp_path):
+    # two layers of materials: params="NAME=SET" (or a list of them) changes that material's set
+    text = open(SCENE).read().replace("[material]", '[[material]]\nname = "strong"', 1)
+    text = text.replace("[[body]]", '[[body]]\nmaterial = "strong"', 1).replace("max = [0.20, 0.10]", "max = [0.20, 0.05]")
+    text += ('\n[[material]]\nname = "spare"\nparameters = "column_collapse"\nmodel = "phase_transition"\ne0 = 0.9\n'
+             '\n[[body]]\nmaterial = "spare"\nmin = [0.0, 0.05]\nmax = [0.20, 0.10]\n')
+    scene = tmp_path / "scene.toml"
+    scene.write_text(text)
+    base = granflow.mpm(str(scene), overrides=SETS, stop_after=STOP)
+    one = granflow.mpm(str(scene), params="strong=flume", overrides=SETS, stop_after=STOP)
+    both = granflow.mpm(str(scene), params=["strong=flume", "spare=flume"], overrides=SETS, stop_after=STOP)
+    assert not np.array_equal(one["particles"]["x"], base["particles"]["x"])  # flume's set differs
+    assert not np.array_equal(both["particles"]["x"], one["particles"]["x"])
+    out = tmp_path / "o"
+    proc = cli("mpm", scene, "--out", out, "--no-png", "--quiet", "--params", "strong=flume", "--stop-after", STOP,
+               *[w for s in SETS for w in ("--set", s)])
+    assert proc.returncode == 0, proc.stderr
+    ref = read_csv(out / "runout.csv")
+    np.testing.assert_allclose(one["series"]["runout"], ref["runout"], rtol=1e-7, atol=1e-20)
+    with pytest.raises(granflow.InputError) as e:  # a set for no material: the CLI's message
+        granflow.mpm(str(scene), params="strong", overrides=SETS, stop_after=STOP)
+    assert str(e.value) == error_text(cli("mpm", scene, "--params", "strong", "--no-png",
+                                          *[w for s in SETS for w in ("--set", s)]))

@@ -32,6 +32,55 @@ std::vector<double> increasing(TomlTable& t, const std::string& key) {
   return v;
 }
 
+// Why a closed polygon is not simple (edges i and j cross or touch, or it encloses no area), or
+// "" for a simple one. Its interior, area and centroid (an obstacle's default moment point) are
+// then those of one region: a bow-tie's cancel to 0/0.
+std::string polygon_defect(const std::vector<double>& x, const std::vector<double>& y) {
+  const size_t n = x.size();
+  double area2 = 0, scale = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const size_t j = (i + 1) % n;
+    area2 += x[i] * y[j] - x[j] * y[i];
+    scale = std::max({scale, std::abs(x[i] - x[0]), std::abs(y[i] - y[0])});
+  }
+  for (size_t i = 0; i < n; ++i)
+    if (x[i] == x[(i + 1) % n] && y[i] == y[(i + 1) % n])
+      return "repeats vertex " + std::to_string(i) + " as vertex " + std::to_string((i + 1) % n) +
+             " (an edge of zero length)";
+  auto cross = [&](size_t a, size_t b, size_t c) {  // orientation of c about a -> b
+    return (x[b] - x[a]) * (y[c] - y[a]) - (y[b] - y[a]) * (x[c] - x[a]);
+  };
+  auto on = [&](size_t a, size_t b, size_t c) {  // c on the segment a-b, given collinear
+    return std::min(x[a], x[b]) <= x[c] && x[c] <= std::max(x[a], x[b]) && std::min(y[a], y[b]) <= y[c] &&
+           y[c] <= std::max(y[a], y[b]);
+  };
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i + 1; j < n; ++j) {
+      const size_t i1 = (i + 1) % n, j1 = (j + 1) % n;
+      const bool adjacent = j == i + 1 || (i == 0 && j1 == 0);
+      const double d1 = cross(i, i1, j), d2 = cross(i, i1, j1), d3 = cross(j, j1, i), d4 = cross(j, j1, i1);
+      bool meet = false;
+      if (adjacent) {  // they share a vertex: a fold back along the other edge is the only fault
+        const size_t shared = j == i + 1 ? j : i, far_i = shared == j ? i : i1, far_j = shared == j ? j1 : j;
+        meet = cross(shared, far_i, far_j) == 0 && ((x[far_i] - x[shared]) * (x[far_j] - x[shared]) +
+                                                        (y[far_i] - y[shared]) * (y[far_j] - y[shared])) > 0;
+      } else {
+        meet = ((d1 > 0) != (d2 > 0) && d1 != 0 && d2 != 0 && (d3 > 0) != (d4 > 0) && d3 != 0 && d4 != 0) ||
+               (d1 == 0 && on(i, i1, j)) || (d2 == 0 && on(i, i1, j1)) || (d3 == 0 && on(j, j1, i)) ||
+               (d4 == 0 && on(j, j1, i1));
+      }
+      if (meet) {
+        std::ostringstream os;
+        os << "is not a simple polygon: edge " << i << " (vertices " << i << "-" << i1 << ") and edge " << j
+           << " (vertices " << j << "-" << j1 << ") " << (adjacent ? "fold back onto each other" : "cross or touch")
+           << "; list the vertices once around the outline, without crossings";
+        return os.str();
+      }
+    }
+  if (!(std::abs(area2) > 1e-12 * scale * scale)) return "encloses no area";  // a guard: a simple polygon has area
+  return "";
+}
+
 // A file a scene names: relative paths from the scene file's folder (else as given, from the
 // working directory).
 std::string beside(const std::string& scene, const std::string& file) {
@@ -213,6 +262,16 @@ mpm::Material read_material(TomlTable& mat, const std::string& path, const std::
   m.e0 = e0 ? *e0 : set.e0.front();
   check_initial_void_ratio(set, m.e0, "'" + mat.dotted("e0") + "' in " + path);
   m.T0 = mat.number_or("T0", set.T0.value_or(1e-15), Bounds::non_negative());
+  // the table's e0 and T0 win over the set's initial ones: a --set (or an ensemble's [[vary]]) of
+  // those would run unchanged
+  for (const auto& a : sets)
+    for (const char* k : {"e0", "T0"}) {
+      const std::string key = override_key(a.assignment);
+      if (key != std::string("initial.") + k || !mat.has(k)) continue;
+      throw InputError("--set '" + a.given + "' changes nothing: " + where(path, mat.line(k)) + "'" + mat.dotted(k) +
+                       "' takes precedence over the parameter set's " + key + "; set " +
+                       (a.material.empty() ? std::string("material.") + k : a.material + ":" + k) + " instead");
+    }
   return m;
 }
 
@@ -386,6 +445,7 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
         body.plan_z = b.numbers("plan_z", Bounds::any(), false);
         if (body.plan_x.size() != body.plan_z.size() || body.plan_x.size() < 3)
           b.fail("plan_z", "plan_x and plan_z need the same number (>= 3) of vertices");
+        if (const std::string why = polygon_defect(body.plan_x, body.plan_z); !why.empty()) b.fail("plan_x", "the plan " + why);
       }
     } else if (b.has("polygon_x") || b.has("polygon_y")) {
       if (D != 2) b.fail("polygon_x", "polygons need grid.dim = 2");
@@ -393,6 +453,7 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
       body.poly_y = b.numbers("polygon_y", Bounds::any(), false);
       if (body.poly_x.size() != body.poly_y.size() || body.poly_x.size() < 3)
         b.fail("polygon_y", "polygon_x and polygon_y need the same number (>= 3) of vertices");
+      if (const std::string why = polygon_defect(body.poly_x, body.poly_y); !why.empty()) b.fail("polygon_x", "the polygon " + why);
       if (b.has("min") || b.has("max")) b.fail("min", "give either min/max or polygon_x/polygon_y, not both");
     } else {
       body.box_min = vec(b, "min", D);
@@ -486,6 +547,11 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
   for (auto& s : stages) {
     mpm::Stage st;
     st.name = s.string_or("name", "");
+    // the stage frame's file name is frame_NNNN_<name>.vtu: refused here, not at the stage's end
+    if (st.name.size() > 200) s.fail("name", "is " + std::to_string(st.name.size()) + " bytes long; a stage name names a frame file and may have at most 200");
+    for (const char c : st.name)
+      if (c == '/' || c == '\\' || static_cast<unsigned char>(c) < 0x20)
+        s.fail("name", "names the stage's frame file (frame_NNNN_<name>.vtu) and may not hold '/', '\\' or control characters");
     st.duration = s.number("duration", Bounds::positive());
     st.damping = s.number_or("damping", 0, Bounds{0.0, 1.0, false, true});
     if (s.has("flip")) st.flip = s.number("flip", Bounds::closed(0, 1));
@@ -564,6 +630,7 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
       ob.poly_y = o.numbers("y", Bounds::any(), false);
       if (ob.poly_x.size() < 3) o.fail("x", "a polygon needs at least three vertices");
       if (ob.poly_y.size() != ob.poly_x.size()) o.fail("y", "needs as many vertices as x");
+      if (const std::string why = polygon_defect(ob.poly_x, ob.poly_y); !why.empty()) o.fail("x", "the polygon " + why);
     } else {  // cylinder: a vertical pier
       ob.shape = mpm::Obstacle::Shape::Cylinder;
       ob.center = o.numbers("center", Bounds::any(), false);
@@ -611,6 +678,7 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
   if (auto o = root.optional_table("output")) {
     if (o->has("times")) sc.output.times = o->numbers("times", Bounds::non_negative());
     sc.output.series_dt = o->number_or("series_dt", 1e-3, Bounds::positive());
+    note(*o, "series_dt");  // checked against time.dt by make_setup, after the stable step
     const std::string format = o->choice("format", {"binary", "base64", "ascii"}, "binary");
     sc.output.format = format == "base64" ? FrameFormat::Base64 : format == "ascii" ? FrameFormat::Ascii : FrameFormat::Raw;
     sc.output.frames_in_stages = o->boolean_or("stage_frames", true);
@@ -727,6 +795,20 @@ mpm::Scene load_scene(const std::string& path, const SceneOverrides& overrides) 
   }
   sc.overrides = overrides.sets;
   return sc;
+}
+
+void add_params(SceneOverrides& ov, const std::string& value) {
+  const auto eq = value.find('=');
+  const bool named = eq != std::string::npos && eq > 0 &&
+                     value.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") == eq;
+  if (named) {
+    ov.material_params.push_back(value);
+    return;
+  }
+  if (!ov.params.empty())
+    throw InputError("--params '" + value + "': a second set for the scene's material (first: '" + ov.params +
+                     "'); name materials with NAME=SET");
+  ov.params = value;
 }
 
 SceneSetup make_setup_for_file(const Scene& sc) {

@@ -84,6 +84,10 @@ SceneSetup make_setup(const Scene& sc) {
   detail::seed_particles(sc, su, rho0s, ground);
   const double depth_max = detail::initial_stress(sc, su, rho0s);
   detail::step_estimate(sc, su, rho0s, depth_max);
+  if (sc.output.series_dt < sc.dt * (1 - 1e-12))  // steps land on every sample
+    fail("output.series_dt", "is " + fmt(sc.output.series_dt) + " s, below time.dt = " + fmt(sc.dt) +
+                                 " s: steps land on every sample, so the run would take dt / series_dt times as many "
+                                 "steps; give series_dt >= time.dt");
 
   // Node masks per stage, contact tables, terrain nodes (scene/node_masks.cpp).
   const bool forces = sc.output.forces_on(!sc.obstacles.empty());

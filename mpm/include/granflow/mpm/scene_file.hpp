@@ -32,6 +32,10 @@ struct SceneOverrides {
 // The first parts of --set keys that go to the parameter set, not to the scene.
 inline const char* const kParameterSetTables[] = {"frictional", "collisional", "initial", "numerics"};
 
+// One --params value (also Python's mpm(params=...)): NAME=SET, a [[material]] name then a set,
+// goes to material_params; a plain SET to params, once (a second is an InputError).
+void add_params(SceneOverrides& overrides, const std::string& value);
+
 Scene load_scene(const std::string& path, const SceneOverrides& overrides = {});
 
 // make_setup for a scene from load_scene: its consistency errors (SceneError) become input
