@@ -2,6 +2,7 @@
 // element driver's) on many material points at once, on threads, without the GIL.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <thread>
@@ -144,6 +145,28 @@ std::string shape_text(const Arr& a) {
   return s + (a.ndim() == 1 ? ",)" : ")");
 }
 
+// h as a C-contiguous float64 array (a copy where it is not one already). Arr::ensure() hides why a
+// conversion failed: an array too large to copy is a MemoryError that says how large, anything
+// else a TypeError naming `what`.
+Arr float64_array(py::handle h, const std::string& what) {
+  Arr a = Arr::ensure(h);
+  if (a) return a;
+  // a numeric array fails to convert only when its copy cannot be allocated
+  if (py::isinstance<py::array>(h) &&
+      std::string("biuf").find(py::reinterpret_borrow<py::array>(h).dtype().kind()) != std::string::npos) {
+    const auto src = py::reinterpret_borrow<py::array>(h);
+    const double gib = 8.0 * static_cast<double>(src.size()) / (1024.0 * 1024.0 * 1024.0);
+    char size[32];
+    std::snprintf(size, sizeof size, "%.3g", gib);
+    PyErr_SetString(PyExc_MemoryError,
+                    ("update: " + what + " has " + std::to_string(src.size()) + " elements; its float64 copy needs " +
+                     size + " GiB, more than could be allocated: pass fewer points, or a C-contiguous float64 array "
+                     "(used without a copy)").c_str());
+    throw py::error_already_set();
+  }
+  throw py::type_error("update: " + what + " is not convertible to a float64 array");
+}
+
 py::dict update(py::handle params, const py::dict& state, py::handle grad_v, py::handle dt, const std::string& model,
                 unsigned threads) {
   const io::ParameterSet set = params_arg(params);
@@ -158,8 +181,7 @@ py::dict update(py::handle params, const py::dict& state, py::handle grad_v, py:
   for (const auto& key : keys) {
     if (!state.contains(key))
       throw io::InputError("update: state is missing '" + key + "' (the state has " + join(keys) + ")");
-    in[key] = Arr::ensure(state[py::str(key)]);
-    if (!in[key]) throw py::type_error("update: state['" + key + "'] is not convertible to a float64 array");
+    in[key] = float64_array(state[py::str(key)], "state['" + key + "']");
   }
   const py::ssize_t n = in["e"].ndim() == 1 ? in["e"].shape(0) : -1;
   if (n < 0) throw io::InputError("update: state['e'] must be 1-D (one void ratio per point), got shape " + shape_text(in["e"]));
@@ -172,8 +194,7 @@ py::dict update(py::handle params, const py::dict& state, py::handle grad_v, py:
       throw io::InputError("update: state['" + key + "'] has shape " + shape_text(a) + ", expected " +
                            (tensor ? "(" + std::to_string(n) + ", 3, 3)" : "(" + std::to_string(n) + ",)"));
   }
-  Arr L = Arr::ensure(grad_v), h = Arr::ensure(dt);
-  if (!L || !h) throw py::type_error("update: grad_v and dt must be convertible to float64 arrays");
+  Arr L = float64_array(grad_v, "grad_v"), h = float64_array(dt, "dt");
   Batch b;
   b.n = n;
   if (L.ndim() == 2 && L.shape(0) == 3 && L.shape(1) == 3)

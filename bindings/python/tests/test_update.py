@@ -168,3 +168,11 @@ def test_model_needs_its_table():
                         model="collisional")
     with pytest.raises(granflow.InputError, match="model 'viscous'"):
         granflow.update("element_test", {"e": np.ones(1)}, np.zeros((3, 3)), 1e-3, model="viscous")
+
+
+def test_a_view_too_large_to_copy_is_a_memory_error():
+    # a float32 view of 2^50 points (no memory of its own) needs an 8 PiB float64 copy
+    huge = np.broadcast_to(np.float32(0.9), (2**50,))
+    with pytest.raises(MemoryError, match=r"state\['e'\] has 1125899906842624 elements; its float64 copy needs "
+                                          r"8\.39e\+06 GiB"):
+        granflow.update("element_test", {"e": huge, "T": huge}, np.zeros((3, 3)), 1e-3, model="collisional")
