@@ -333,3 +333,41 @@ TEST(MpmMaterials, LayeredBlockSlidesOnItsWeakLayerAndStaysOnAStrongOne) {
 
 }  // namespace
 }  // namespace granflow::mpm
+
+namespace granflow::mpm {
+
+// The stable step of a scene of several materials is the smallest over its materials, whichever
+// comes first, and a fixed time.dt above it is refused naming time.dt. Material b is material a
+// nine times stiffer: its P-wave speed is 3 times a's (moduli scale with K0), its limit a third.
+TEST(MpmMaterials, StableStepIsTheSmallestOverTheMaterials) {
+  Scene sc = two_blocks(ModelKind::Frictional, ShapeKind::Linear);
+  Material b = sc.material;
+  b.label = "b";
+  b.params.f.K0 *= 9;
+  sc.other_materials = {b};
+  sc.adaptive = false;
+  sc.dt = 1e-7;
+  const double limit_a = make_setup(one_block(sc, 0)).dt_estimate, limit_b = make_setup(one_block(sc, 1)).dt_estimate;
+  EXPECT_NEAR(limit_b, limit_a / 3, 1e-12 * limit_a);
+  Scene swapped = sc;
+  swapped.material = b;
+  swapped.material.label = "a";  // labels aside, b first
+  swapped.other_materials = {sc.material};
+  swapped.other_materials[0].label = "b";
+  for (Body& body : swapped.bodies) body.material = 1 - body.material;
+  for (const Scene* s : {&sc, &swapped}) {
+    EXPECT_EQ(make_setup(*s).dt_estimate, limit_b) << (s == &sc ? "stiff material second" : "stiff material first");
+    Scene fixed = *s;
+    fixed.dt = 2 * limit_b;  // below a's limit, above b's
+    try {
+      make_setup(fixed);
+      ADD_FAILURE() << "accepted time.dt = " << fixed.dt << " s above the stiff material's limit " << limit_b;
+    } catch (const SceneError& e) {
+      EXPECT_EQ(e.key(), "time.dt") << e.what();
+    }
+    fixed.dt = 0.9 * limit_b;
+    EXPECT_NO_THROW(make_setup(fixed));
+  }
+}
+
+}  // namespace granflow::mpm

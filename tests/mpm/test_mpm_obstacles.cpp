@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -384,4 +385,301 @@ TEST(MpmObstacles, EnsembleMembersReportTheForcesOfTheirSingleRuns) {
     EXPECT_LE(a[0].peak, a[0].step_peak * (1 + 1e-12));
   }
   EXPECT_NE(single[0].forces[0].impulse, single[1].forces[0].impulse);
+}
+
+namespace {
+
+// The records of a CSV text by RFC 4180 (quoted fields may hold commas, quotes and line breaks).
+std::vector<std::vector<std::string>> csv_records(const std::string& text) {
+  std::vector<std::vector<std::string>> rows(1, std::vector<std::string>(1));
+  bool quoted = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < text.size() && text[i + 1] == '"')
+        rows.back().back() += text[++i];
+      else if (c == '"')
+        quoted = false;
+      else
+        rows.back().back() += c;
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      rows.back().emplace_back();
+    } else if (c == '\n') {
+      rows.emplace_back(1);
+    } else {
+      rows.back().back() += c;
+    }
+  }
+  if (rows.back().size() == 1 && rows.back()[0].empty()) rows.pop_back();
+  return rows;
+}
+
+std::string file_text(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+}  // namespace
+
+// Names with commas, quotes and line breaks (obstacles, gauges, tracked points) keep every row of
+// obstacle_forces.csv, obstacle_pressure_*.csv, gauges.csv and tracked.csv at its header's width,
+// and read back as given.
+TEST(MpmObstacles, NamesWithCommasQuotesAndLineBreaksKeepTheCsvColumns) {
+  const std::string wall = "low, wall \"A\"\nsecond line", gauge = "gauge, up", track = "point \"B\", left";
+  Scene sc = test::tiny_column(ModelKind::Frictional);
+  sc.stages[1].duration = 0.04;
+  sc.output.times = {0.04};
+  Obstacle o = box2d(wall, 0.22, 0.0, 0.26, 0.04);
+  sc.obstacles = {o};
+  Gauge g;
+  g.name = gauge;
+  g.from = {0.1, 0.0};
+  g.to = {0.1, 0.12};
+  g.width = 0.02;
+  sc.gauges = {g};
+  sc.tracks.resize(1);
+  sc.tracks[0].name = track;
+  const SceneSetup su = make_setup(sc);
+  const auto dir = std::filesystem::temp_directory_path() / "granflow_csv_names";
+  std::filesystem::remove_all(dir);
+  RunOptions opt;
+  opt.progress = false;
+  opt.out_dir = dir.string();
+  auto r = make_cpu_runner(su);
+  const RunSummary s = run(su, *r, opt);
+  ASSERT_TRUE(s.ok) << s.message;
+  std::vector<std::pair<std::string, std::pair<size_t, std::string>>> files = {
+      {"obstacle_forces.csv", {2, wall}}, {"gauges.csv", {2, gauge}}, {"tracked.csv", {2, track}}};
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    if (e.path().filename().string().rfind("obstacle_pressure_", 0) == 0)
+      files.push_back({e.path().filename().string(), {0, wall}});
+  ASSERT_GE(files.size(), 5u) << "pressure profiles beside the frames";
+  for (const auto& [file, where] : files) {
+    const auto rows = csv_records(file_text(dir / file));
+    if (file.rfind("obstacle_pressure_", 0) == 0 && rows.size() == 1) continue;  // t = 0: no sample before it
+    ASSERT_GE(rows.size(), 2u) << file;
+    size_t named = 0;
+    for (size_t i = 1; i < rows.size(); ++i) {
+      ASSERT_EQ(rows[i].size(), rows[0].size()) << file << " row " << i;
+      if (rows[i][where.first] == where.second) ++named;
+    }
+    EXPECT_GT(named, 0u) << file << ": no row names '" << where.second << "'";
+  }
+}
+
+// A run's summarised impulse per boundary (printed, in an ensemble's summary.csv, Python's
+// ForcePeak.impulse) is the magnitude of the summed impulse of its sample rows, and its x part
+// is the block's loss of momentum (the wall of the test above, through run()).
+TEST(MpmObstacles, SummarisedImpulseIsTheRowsSumAndTheBlocksLossOfMomentum) {
+  Scene sc = open_scene(ShapeKind::Linear, 0.2, 0.0);
+  sc.light_node_mass = 0.0;
+  sc.bodies[0].box_min = {0.05, 0.05};
+  sc.bodies[0].box_max = {0.15, 0.09};
+  sc.obstacles = {box2d("wall", 0.3, 0.05, 0.35, 0.2), box2d("floor", 0.0, 0.0, 0.4, 0.05)};
+  sc.obstacles[1].key = "obstacle[1]";
+  sc.obstacles[1].mu = 0.0;
+  sc.output.series_dt = 0.01;
+  SceneSetup su = make_setup(sc);
+  const long n = su.particles.n;
+  double P0 = 0;
+  for (long i = 0; i < n; ++i) {
+    su.particles.v[i] = 1.0;
+    P0 += su.particles.m[i];
+  }
+  RunOptions opt;
+  opt.progress = false;
+  auto r = make_cpu_runner(su);
+  const RunSummary s = run(su, *r, opt);
+  ASSERT_TRUE(s.ok) << s.message;
+  Frame fr;
+  r->frame(fr, false);
+  double P1 = 0;
+  for (long i = 0; i < n; ++i) P1 += su.particles.m[i] * fr.v[i];
+  const int wall = boundary_index(su, "wall");
+  double I[3] = {0, 0, 0}, peak = 0;
+  long rows = 0;
+  for (const ForceRow& row : s.force_rows) {
+    if (row.boundary != wall || row.part >= 0) continue;
+    ++rows;
+    for (int d = 0; d < 3; ++d) I[d] += row.sums.impulse[d];
+    if (row.sums.time > 0)
+      peak = std::max(peak, std::hypot(row.sums.impulse[0], row.sums.impulse[1], row.sums.impulse[2]) / row.sums.time);
+  }
+  EXPECT_EQ(rows, 21) << "a row per 0.01 s sample of 0.2 s, and t = 0";
+  ASSERT_EQ(s.forces.size(), su.force_boundaries.size());
+  const ForcePeak& f = s.forces[wall];
+  EXPECT_EQ(f.boundary, "wall");
+  EXPECT_NEAR(f.impulse, std::hypot(I[0], I[1], I[2]), 1e-12 * f.impulse);
+  EXPECT_NEAR(I[0], P0 - P1, 1e-6 * (P0 - P1));
+  EXPECT_GT(P0 - P1, 0.5 * P0);  // it hit the wall
+  EXPECT_NEAR(f.peak, peak, 1e-12 * peak);
+}
+
+namespace {
+
+// A 3D scene of open_scene's material: a 40 x 20 x 20 cm grid of `h`, no walls.
+Scene open_scene_3d(double h, double duration, double damping) {
+  Scene s3 = open_scene(ShapeKind::Linear, duration, damping);
+  s3.dim = 3;
+  s3.h = h;
+  s3.origin = {0.0, 0.0, 0.0};
+  s3.size = {0.4, 0.2, 0.2};
+  s3.gravity = {0.0, -9.81, 0.0};
+  return s3;
+}
+
+Obstacle box3d(const std::string& name, std::vector<double> lo, std::vector<double> hi) {
+  Obstacle o;
+  o.name = name;
+  o.key = "obstacle[0]";
+  o.kind = "box";
+  o.shape = Obstacle::Shape::Box;
+  o.box_min = std::move(lo);
+  o.box_max = std::move(hi);
+  return o;
+}
+
+}  // namespace
+
+// A 3D box obstacle: it holds every node inside or on it, each with the inward normal of its
+// nearest face (where one face is nearest), and its six faces are the parts x-, x+, y-, y+, z-,
+// z+ whose probes carry their face's normal.
+TEST(MpmObstacles, ThreeDBoxHoldsItsNodesWithTheNearestFacesNormal) {
+  Scene sc = open_scene_3d(0.01, 0.01, 0.0);
+  sc.bodies[0].box_min = {0.0, 0.0, 0.0};
+  sc.bodies[0].box_max = {0.1, 0.05, 0.2};
+  const std::vector<double> lo = {0.2, 0.0, 0.05}, hi = {0.3, 0.06, 0.15};
+  sc.obstacles = {box3d("block", lo, hi)};
+  const SceneSetup su = make_setup(sc);
+  EXPECT_EQ(su.obstacle_nodes.size(), 11u * 7u * 11u);
+  const char* names[6] = {"x-", "x+", "y-", "y+", "z-", "z+"};
+  auto nearest = [&](const double* x) {  // face index, or -1 when two are equally near
+    double d[6];
+    for (int a = 0; a < 3; ++a) {
+      d[2 * a] = x[a] - lo[a];
+      d[2 * a + 1] = hi[a] - x[a];
+    }
+    const int f = static_cast<int>(std::min_element(d, d + 6) - d);
+    for (int g = 0; g < 6; ++g)
+      if (g != f && std::fabs(d[g] - d[f]) < 1e-9) return -1;
+    return f;
+  };
+  long checked = 0;
+  for (const ObstacleNode& o : su.obstacle_nodes) {
+    const long i = o.node % su.nodes[0], j = o.node / su.nodes[0] % su.nodes[1], k = o.node / su.nodes[0] / su.nodes[1];
+    const double x[3] = {su.origin[0] + i * sc.h, su.origin[1] + j * sc.h, su.origin[2] + k * sc.h};
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_GE(x[a], lo[a] - 1e-9);
+      EXPECT_LE(x[a], hi[a] + 1e-9);
+    }
+    const int f = nearest(x);
+    if (f < 0) continue;
+    ++checked;
+    for (int a = 0; a < 3; ++a)  // inward: +1 on a min face, -1 on a max face
+      EXPECT_DOUBLE_EQ(o.n[a], a == f / 2 ? (f % 2 ? -1.0 : 1.0) : 0.0)
+          << "node at (" << x[0] << ", " << x[1] << ", " << x[2] << "), face " << names[f];
+  }
+  EXPECT_GT(checked, 300);
+  ASSERT_EQ(su.force_parts.size(), 6u);
+  for (int f = 0; f < 6; ++f) {
+    const ForcePart& p = su.force_parts[f];
+    EXPECT_EQ(p.name, names[f]);
+    EXPECT_GT(p.count, 0) << names[f];
+    for (long q = p.first; q < p.first + p.count; ++q)
+      EXPECT_DOUBLE_EQ(su.probes[q].n[f / 2], f % 2 ? -1.0 : 1.0) << names[f];
+  }
+}
+
+// A 3D block at rest on a box obstacle: its top face (y+) carries the block's weight within 1 %.
+TEST(MpmObstacles, ThreeDBlockAtRestOnABoxCarriesItsWeight) {
+  Scene sc = open_scene_3d(0.02, 0.2, 0.5);
+  then_undamped(sc, 0.05);
+  sc.bodies[0].box_min = {0.16, 0.06, 0.06};
+  sc.bodies[0].box_max = {0.24, 0.10, 0.14};
+  sc.obstacles = {box3d("table", {0.1, 0.0, 0.02}, {0.3, 0.06, 0.18})};
+  const SceneSetup su = make_setup(sc);
+  const Taken f = run_forces(su, 0.05);
+  const double W = total_mass(su) * kG;
+  int top = -1;
+  for (size_t q = 0; q < su.force_parts.size(); ++q)
+    if (su.force_parts[q].name == "y+") top = static_cast<int>(q);
+  ASSERT_GE(top, 0);
+  const ForceSums& s = f.last.parts[top];
+  const ForceSums& all = f.last.boundaries[0];
+  std::printf("3D block: weight %.4f N, top face Fy %.4f N (%+.3f %%), whole box Fy %.4f N\n", W,
+              s.impulse[1] / s.time, 100 * (-s.impulse[1] / s.time / W - 1), all.impulse[1] / all.time);
+  EXPECT_NEAR(s.impulse[1] / s.time, -W, 0.01 * W);
+  EXPECT_NEAR(all.impulse[1] / all.time, -W, 0.01 * W);
+  EXPECT_NEAR(s.normal / s.time, W, 0.01 * W);
+  EXPECT_LT(std::fabs(all.impulse[0] / all.time), 0.01 * W);
+  EXPECT_LT(std::fabs(all.impulse[2] / all.time), 0.01 * W);
+}
+
+// A block at rest on a floor obstacle, run with files: the floor's moment about a point 0.15 m
+// left of the block's centre is that arm times the weight (obstacle_forces.csv, Mz), and the
+// pressure along the floor's top face (obstacle_pressure_NNNN.csv of the final frame)
+// integrates to the weight and is mirror symmetric about the block's centre (the block slumps
+// sideways a little: its height is no longer H, so rho g H is not the reference).
+TEST(MpmObstacles, BlockAtRestGivesTheMomentAndPressureOfItsWeight) {
+  Scene sc = open_scene(ShapeKind::Linear, 0.2, 0.5);
+  then_undamped(sc, 0.05);
+  sc.output.series_dt = 0.05;  // the last sample: the undamped stage
+  sc.output.frames_in_stages = false;
+  const double x0 = 0.1, x1 = 0.3, y0 = 0.05, H = 0.05;
+  sc.bodies[0].box_min = {x0, y0};
+  sc.bodies[0].box_max = {x1, y0 + H};
+  Obstacle floor = box2d("floor", 0.0, 0.0, 0.4, y0);
+  floor.moment_point = {0.05, y0};
+  sc.obstacles = {floor};
+  const SceneSetup su = make_setup(sc);
+  const auto dir = std::filesystem::temp_directory_path() / "granflow_moment_pressure";
+  std::filesystem::remove_all(dir);
+  RunOptions opt;
+  opt.progress = false;
+  opt.out_dir = dir.string();
+  auto r = make_cpu_runner(su);
+  ASSERT_TRUE(run(su, *r, opt).ok);
+  const double W = total_mass(su) * kG, rho_g_H = W / (x1 - x0);
+
+  const auto forces = csv_records(file_text(dir / "obstacle_forces.csv"));
+  const auto& head = forces[0];
+  const size_t mz = std::find(head.begin(), head.end(), "Mz [N m/m]") - head.begin();
+  ASSERT_LT(mz, head.size());
+  const std::vector<std::string>* total = nullptr;
+  for (const auto& row : forces)
+    if (row[2] == "floor" && row[3] == "total") total = &row;
+  ASSERT_NE(total, nullptr);
+  const double arm = 0.5 * (x0 + x1) - 0.05;
+  std::printf("moment about the point: %.5f N m/m, -arm W %.5f\n", std::stod((*total)[mz]), -arm * W);
+  EXPECT_NEAR(std::stod((*total)[mz]), -arm * W, 0.01 * arm * W);
+
+  std::string newest;
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    if (e.path().filename().string().rfind("obstacle_pressure_", 0) == 0) newest = std::max(newest, e.path().filename().string());
+  ASSERT_FALSE(newest.empty());
+  const auto rows = csv_records(file_text(dir / newest));
+  ASSERT_EQ(rows[0], (std::vector<std::string>{"obstacle", "face", "x [m]", "y [m]", "s [m]", "p [Pa]", "tau [Pa]"}));
+  double sum = 0;
+  std::map<long, double> surface;  // node column -> p on the face's top row
+  for (size_t i = 1; i < rows.size(); ++i) {
+    if (rows[i][1] != "y+") continue;
+    const double x = std::stod(rows[i][2]), y = std::stod(rows[i][3]), p = std::stod(rows[i][5]);
+    sum += p * sc.h;
+    if (std::fabs(y - y0) < 1e-9) surface[std::lround(x / sc.h)] = p;
+  }
+  const long centre = std::lround(0.5 * (x0 + x1) / sc.h);
+  long loaded = 0;
+  for (const auto& [k, p] : surface) {
+    if (!surface.count(2 * centre - k)) continue;  // a corner node: counted for the side face
+    EXPECT_NEAR(p, surface[2 * centre - k], 1e-6 * rho_g_H) << "x = " << k * sc.h;
+    loaded += p > 0.5 * rho_g_H;
+  }
+  EXPECT_GE(loaded, 21) << "the block's width and more";
+  std::printf("pressure: integral %.4f N/m against the weight %.4f; middle %.1f Pa, rho g H %.1f Pa\n", sum, W,
+              surface[centre], rho_g_H);
+  EXPECT_NEAR(sum, W, 0.01 * W);
 }

@@ -223,4 +223,43 @@ TEST(MpmSlabs, MoreSlabsThanTheGridHoldsAreRefused) {
   }
 }
 
+// The slab report against a hand-counted case: a block translating at 1 m/s in zero gravity
+// across the border that splits it in two, borders held (no re-partition): every point that
+// starts left of the border ends right of it, so `migrated` is their count, and at the end
+// one slab holds all points, the largest imbalance 2.
+TEST(MpmSlabs, ReportCountsTheMigrantsOfATranslatingBlock) {
+  Scene sc = test::tiny_column(ModelKind::Frictional);
+  test::one_open_stage(sc, "move", 0.1);
+  sc.walls.push_back({1, false, 0.0, false, "wall[0].side"});  // a floor the block never meets: a split needs a boundary
+  sc.gravity = {0.0, 0.0};
+  sc.bodies[0].box_min = {0.1, 0.04};
+  sc.bodies[0].box_max = {0.2, 0.08};
+  SceneSetup su = make_setup(sc);
+  const long n = su.particles.n;
+  for (long i = 0; i < n; ++i) su.particles.v[i] = 1.0;
+  SlabOptions o;
+  o.slabs = 2;
+  o.imbalance = 1e9;  // the start's borders stay
+  auto r = make_cpu_runner(su, o);
+  const std::vector<int> start = r->slab_report().borders;
+  ASSERT_EQ(start.size(), 3u);
+  auto column = [&](double x) { return static_cast<int>(std::floor((x - su.origin[0]) / sc.h)); };  // linear hats
+  long left = 0;
+  for (long i = 0; i < n; ++i) left += column(su.particles.x[i]) < start[1];
+  ASSERT_GT(left, n / 4);
+  ASSERT_LT(left, 3 * n / 4);
+  RunOptions opt;
+  opt.progress = false;
+  const RunSummary s = run(su, *r, opt);
+  ASSERT_TRUE(s.ok) << s.message;
+  Frame f;
+  r->frame(f, false);
+  for (long i = 0; i < n; ++i) ASSERT_GE(column(f.x[i]), start[1]) << "point " << i << " did not cross";
+  const SlabReport rep = r->slab_report();
+  EXPECT_EQ(rep.borders, start);
+  EXPECT_EQ(rep.repartitions, 0);
+  EXPECT_EQ(rep.migrated, left);
+  EXPECT_EQ(rep.max_imbalance, 2.0);
+}
+
 }  // namespace granflow::mpm
