@@ -65,4 +65,23 @@ bool raster_gdal_available();
 // A coordinate system given as WKT is geographic (degrees): GEOGCS / GEOGCRS / GEODCRS at its top.
 bool wkt_is_geographic(const std::string& wkt);
 
+// What a coordinate system's text says about its horizontal unit.
+struct CrsUnit {
+  enum Kind { Metres, Geographic, OtherUnit, Unknown } kind = Unknown;
+  std::string unit;   // OtherUnit: its name as written ("US survey foot", "FEET")
+  double metres = 0;  // OtherUnit: metres per unit (0: not stated)
+};
+// The coordinate system of a .prj read from its text alone, as a build without GDAL does (builds
+// with GDAL ask OGR first and use this where OGR cannot parse it): WKT 1 and 2, ESRI's WKT, and
+// ESRI's older lines ("Projection GEOGRAPHIC", "Units FEET"). A leading UTF-8 BOM is skipped.
+CrsUnit crs_unit_from_text(const std::string& text);
+
+// Limits checked before anything is allocated (InputErrors name the file and the size needed).
+constexpr double kMaxRasterCells = 250e6;      // ncols x nrows (2 GB of doubles)
+constexpr double kMaxAsciiBytes = 4e9;         // an .asc is read whole
+constexpr double kMaxPrjBytes = 1e6;           // a .prj
+// Cells must be at least this times the largest |easting| or |northing| of the raster's corners:
+// double precision resolves 2.2e-16 times it, so a cell spans over 450,000 distinct values.
+constexpr double kMinCellOverCoordinate = 1e-10;
+
 }  // namespace granflow::io
