@@ -1,7 +1,9 @@
 // Elevation rasters (digital elevation models): ESRI ASCII grids (.asc) in every build, GeoTIFF
 // and the other GDAL formats where the build found GDAL (raster_gdal_available). Georeferenced in
-// metres: a raster in a geographic (degrees) coordinate system is refused, one without a
-// coordinate system is taken as metres. Errors are InputErrors naming the file (and line).
+// metres: a raster in a geographic (degrees) coordinate system or in another linear unit is
+// refused (every .prj form: WKT, ESRI's WKT and text, a BOM), one without a coordinate system is
+// taken as metres; sizes and cell resolution are checked from the header before allocating.
+// Errors are InputErrors naming the file (and line).
 #pragma once
 
 #include <string>
