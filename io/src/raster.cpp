@@ -5,7 +5,6 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -174,7 +173,10 @@ class WktParser {
   bool word(std::string& w) {
     skip();
     const size_t b = at_;
-    while (more() && (std::isalnum(static_cast<unsigned char>(s_[at_])) || std::strchr("_.+-", s_[at_]))) ++at_;
+    auto in_word = [](char c) {
+      return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '+' || c == '-';
+    };
+    while (more() && in_word(s_[at_])) ++at_;
     w.assign(s_, b, at_ - b);
     return !w.empty();
   }
