@@ -17,6 +17,7 @@
 #ifdef GRANFLOW_WITH_GDAL
 #include <cpl_conv.h>
 #include <cpl_error.h>
+#include <cpl_string.h>
 #include <cpl_vsi.h>
 #include <gdal.h>
 #include <ogr_srs_api.h>
@@ -113,12 +114,6 @@ double centre_difference(const Raster& r, long row, long col, int drow, int dcol
   return 0.0;  // a single cell along this axis: level
 }
 
-[[noreturn]] void refuse_geographic(const std::string& path, const std::string& source) {
-  throw InputError(where(path) + "the raster is in a geographic coordinate system (degrees" + source +
-                   "); granflow needs a projected one in metres (e.g. UTM): reproject it, e.g. gdalwarp -t_srs "
-                   "EPSG:326xx");
-}
-
 #ifdef GRANFLOW_WITH_GDAL
 // While alive: GDAL's drivers registered (once per process) and its errors kept off stderr, so
 // that the caller can report CPLGetLastErrorMsg() in its own message.
@@ -139,6 +134,231 @@ std::string gdal_message(const std::string& fallback) {
   return m && *m ? std::string(m) : fallback;
 }
 
+#endif
+
+[[noreturn]] void refuse_geographic(const std::string& path, const std::string& source) {
+  throw InputError(where(path) + "the raster is in a geographic coordinate system (degrees" + source +
+                   "); granflow needs a projected one in metres (e.g. UTM): reproject it, e.g. gdalwarp -t_srs "
+                   "EPSG:326xx");
+}
+
+std::string upper(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string skip_bom(const std::string& s) { return s.rfind("\xEF\xBB\xBF", 0) == 0 ? s.substr(3) : s; }
+
+// A WKT node NAME[arg, ...]: quoted strings and bare words in `atoms`, nodes in `kids`.
+struct WktNode {
+  std::string name;  // upper case
+  std::vector<std::string> atoms;
+  std::vector<WktNode> kids;
+};
+
+class WktParser {
+ public:
+  explicit WktParser(const std::string& s) : s_(s) {}
+  bool parse(WktNode& n) {
+    if (!node(n, 0)) return false;
+    skip();
+    return at_ == s_.size();
+  }
+
+ private:
+  bool more() const { return at_ < s_.size(); }
+  void skip() {
+    while (more() && std::isspace(static_cast<unsigned char>(s_[at_]))) ++at_;
+  }
+  bool word(std::string& w) {
+    skip();
+    const size_t b = at_;
+    auto in_word = [](char c) {
+      return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '+' || c == '-';
+    };
+    while (more() && in_word(s_[at_])) ++at_;
+    w.assign(s_, b, at_ - b);
+    return !w.empty();
+  }
+  bool opens() const { return more() && (s_[at_] == '[' || s_[at_] == '('); }
+  bool node(WktNode& n, int depth) {
+    if (depth > 32 || !word(n.name)) return false;  // depth: no stack overflow on hostile input
+    n.name = upper(n.name);
+    skip();
+    if (!opens()) return false;
+    ++at_;
+    for (;;) {
+      skip();
+      if (!more()) return false;
+      if (s_[at_] == '"') {  // "" is a quote inside
+        std::string q;
+        for (++at_;; ++at_) {
+          if (!more()) return false;
+          if (s_[at_] == '"') {
+            if (at_ + 1 < s_.size() && s_[at_ + 1] == '"') { q += '"'; ++at_; continue; }
+            ++at_;
+            break;
+          }
+          q += s_[at_];
+        }
+        n.atoms.push_back(q);
+      } else {
+        const size_t save = at_;
+        std::string w;
+        if (!word(w)) return false;
+        skip();
+        if (opens()) {
+          at_ = save;
+          n.kids.emplace_back();
+          if (!node(n.kids.back(), depth + 1)) return false;
+        } else {
+          n.atoms.push_back(w);
+        }
+      }
+      skip();
+      if (more() && s_[at_] == ',') { ++at_; continue; }
+      if (more() && (s_[at_] == ']' || s_[at_] == ')')) { ++at_; return true; }
+      return false;
+    }
+  }
+  const std::string& s_;
+  size_t at_ = 0;
+};
+
+CrsUnit unit_of_wkt(const WktNode& n) {
+  const std::string& k = n.name;
+  if (k == "GEOGCS" || k == "GEOGCRS" || k == "GEOGRAPHICCRS" || k == "GEODCRS" || k == "GEODETICCRS")
+    return {CrsUnit::Geographic, "", 0};
+  if ((k == "COMPD_CS" || k == "COMPOUNDCRS") && !n.kids.empty()) return unit_of_wkt(n.kids.front());
+  if (k == "BOUNDCRS")
+    for (const WktNode& c : n.kids)
+      if (c.name == "SOURCECRS" && !c.kids.empty()) return unit_of_wkt(c.kids.front());
+  if (k != "PROJCS" && k != "PROJCRS" && k != "PROJECTEDCRS" && k != "LOCAL_CS" && k != "ENGCRS" &&
+      k != "ENGINEERINGCRS")
+    return {};
+  auto is_unit = [](const WktNode& c) { return c.name == "UNIT" || c.name == "LENGTHUNIT"; };
+  const WktNode* unit = nullptr;
+  for (const WktNode& c : n.kids)  // WKT 1: UNIT of the PROJCS itself (the GEOGCS inside has degrees)
+    if (!unit && is_unit(c)) unit = &c;
+  for (const WktNode& c : n.kids)  // WKT 2: a LENGTHUNIT in the AXIS nodes
+    if (c.name == "AXIS")
+      for (const WktNode& a : c.kids)
+        if (!unit && is_unit(a)) unit = &a;
+  double m = 0;
+  if (!unit || unit->atoms.size() < 2 || !parse_number(unit->atoms[1], m) || !(m > 0)) return {};
+  if (std::fabs(m - 1.0) <= 1e-9) return {CrsUnit::Metres, unit->atoms[0], 1.0};
+  return {CrsUnit::OtherUnit, unit->atoms[0], m};
+}
+
+// ESRI's older text: lines of "Keyword value" (Projection, Datum, Units, Zunits, Parameters, ...).
+bool unit_of_esri_text(const std::string& text, CrsUnit& u) {
+  std::istringstream in(text);
+  std::string line, projection, units;
+  bool first = true;
+  while (std::getline(in, line)) {
+    std::istringstream ws(line);
+    std::string key, value;
+    if (!(ws >> key)) continue;
+    ws >> value;
+    key = lower(key);
+    if (first && key != "projection") return false;
+    first = false;
+    if (key == "projection") projection = upper(value);
+    else if (key == "units") units = upper(value);
+  }
+  if (first) return false;
+  if (projection == "GEOGRAPHIC") u = {CrsUnit::Geographic, "", 0};
+  else if (units.empty() || units == "METERS" || units == "METRES" || units == "METER" || units == "METRE" || units == "M")
+    u = {CrsUnit::Metres, units, 1.0};
+  else if (units == "FEET" || units == "FT") u = {CrsUnit::OtherUnit, units, 0.3048};
+  else u = {CrsUnit::OtherUnit, units, 0};
+  return true;
+}
+
+#ifdef GRANFLOW_WITH_GDAL
+// OGR's reading of a coordinate system (WKT of any version or dialect, ESRI's older text); false
+// where OGR cannot parse it or it is neither geographic nor projected.
+bool unit_of_ogr(const std::string& text, CrsUnit& u) {
+  OGRSpatialReferenceH srs = OSRNewSpatialReference(nullptr);
+  std::string copy = text;
+  char* p = copy.data();
+  bool ok = OSRImportFromWkt(srs, &p) == OGRERR_NONE;
+  if (!ok) {
+    char** lines = CSLTokenizeString2(text.c_str(), "\r\n", 0);
+    ok = lines && OSRImportFromESRI(srs, lines) == OGRERR_NONE;
+    CSLDestroy(lines);
+  }
+  if (ok && OSRIsGeographic(srs)) {
+    u = {CrsUnit::Geographic, "", 0};
+  } else if (ok && (OSRIsProjected(srs) || OSRIsLocal(srs))) {
+    char* name = nullptr;
+    const double m = OSRGetLinearUnits(srs, &name);
+    u = {std::fabs(m - 1.0) <= 1e-9 ? CrsUnit::Metres : CrsUnit::OtherUnit, name ? name : "", m};
+  } else {
+    ok = false;
+  }
+  OSRDestroySpatialReference(srs);
+  return ok;
+}
+#endif
+
+// Refuses a coordinate system that is not projected in metres; `from`: where it was read (a .prj).
+void check_crs(const std::string& path, const std::string& from, const std::string& text) {
+  CrsUnit u;
+#ifdef GRANFLOW_WITH_GDAL
+  const GdalSession gdal;
+  if (!unit_of_ogr(text, u)) u = crs_unit_from_text(text);
+#else
+  u = crs_unit_from_text(text);
+#endif
+  const std::string src = from.empty() ? std::string() : ", " + from;
+  if (u.kind == CrsUnit::Geographic) refuse_geographic(path, src);
+  if (u.kind == CrsUnit::OtherUnit)
+    throw InputError(where(path) + "the coordinate system's unit is '" + u.unit + "'" +
+                     (u.metres > 0 ? " (" + fmt(u.metres) + " m" : std::string(" (not a length")) + src +
+                     "); granflow needs metres: reproject the raster, e.g. gdalwarp -t_srs EPSG:326xx");
+  if (u.kind == CrsUnit::Unknown)
+    throw InputError(where(path) + "cannot tell the coordinate system" + (from.empty() ? "" : " of " + from) +
+                     " (neither WKT nor ESRI's Projection/Units lines); granflow needs a projected one in "
+                     "metres: correct the .prj, or remove it to take the raster as metres");
+}
+
+// Size and precision, from the header alone: refused before anything is allocated.
+void check_extent(const Raster& r, const std::string& path, long line = 0) {
+  const double cells = static_cast<double>(r.ncols) * static_cast<double>(r.nrows);
+  if (cells > kMaxRasterCells)
+    throw InputError(where(path, line) + "ncols x nrows = " + std::to_string(r.ncols) + " x " + std::to_string(r.nrows) +
+                     " = " + std::to_string(r.ncols * r.nrows) + " cells would need " + fmt(cells * 8 / 1e9) +
+                     " GB as doubles; granflow reads at most " + fmt(kMaxRasterCells) +
+                     " cells (2 GB): crop or coarsen the raster (gdal_translate -projwin, -tr)");
+  const double big = std::max({std::fabs(r.west), std::fabs(r.east()), std::fabs(r.south), std::fabs(r.north())});
+  if (!(r.cellsize >= kMinCellOverCoordinate * big))
+    throw InputError(where(path, line) + "cells of " + fmt(r.cellsize) + " m at coordinates up to " + fmt(big) +
+                     " m: double precision resolves only " + fmt(big * std::numeric_limits<double>::epsilon()) +
+                     " m there; granflow needs cells of at least 1e-10 x the largest |easting| or |northing| (" +
+                     fmt(kMinCellOverCoordinate * big) +
+                     " m here): shift the raster's coordinates (xllcorner, yllcorner) and terrain.origin by "
+                     "the same amount");
+}
+
+// A regular file (a link is followed) of at most `limit` bytes: no device, FIFO or folder.
+void check_regular(const std::string& path, double limit, const std::string& what) {
+  std::error_code ec;
+  const auto st = std::filesystem::status(path, ec);
+  if (!std::filesystem::exists(st)) return;  // the caller names a missing file
+  if (!std::filesystem::is_regular_file(st))
+    throw InputError(where(path) + "not a regular file (a device, FIFO or folder" +
+                     (std::filesystem::is_symlink(std::filesystem::symlink_status(path, ec))
+                          ? ", linked to " + std::filesystem::read_symlink(path, ec).string()
+                          : std::string()) +
+                     "); granflow reads " + what + " from regular files");
+  const double size = static_cast<double>(std::filesystem::file_size(path, ec));
+  if (size > limit)
+    throw InputError(where(path) + fmt(size) + " bytes; granflow reads " + what + " of at most " + fmt(limit) +
+                     " bytes");
+}
+
+#ifdef GRANFLOW_WITH_GDAL
 Raster read_gdal(const std::string& path) {
   const GdalSession gdal;
   GDALDatasetH ds = GDALOpen(path.c_str(), GA_ReadOnly);
@@ -164,18 +384,9 @@ Raster read_gdal(const std::string& path) {
   r.south = gt[3] - static_cast<double>(r.nrows) * r.cellsize;
   if (const char* wkt = GDALGetProjectionRef(ds); wkt && *wkt) {
     r.crs = wkt;
-    OGRSpatialReferenceH srs = OSRNewSpatialReference(wkt);
-    if (srs) {
-      const bool geographic = OSRIsGeographic(srs) != 0;
-      const bool projected = OSRIsProjected(srs) != 0;
-      const double metres = projected ? OSRGetLinearUnits(srs, nullptr) : 1.0;
-      OSRDestroySpatialReference(srs);
-      if (geographic) refuse_geographic(path, "");
-      if (std::fabs(metres - 1.0) > 1e-12)
-        throw InputError(where(path) + "the coordinate system's unit is " + fmt(metres) +
-                         " m; granflow needs metres (reproject the raster)");
-    }
+    check_crs(path, "", r.crs);  // as a .prj beside an .asc
   }
+  check_extent(r, path);
   GDALRasterBandH band = GDALGetRasterBand(ds, 1);
   int has_nodata = 0;
   const double nodata = GDALGetRasterNoDataValue(band, &has_nodata);
@@ -230,6 +441,15 @@ void Raster::cells_read(double e0, double e1, double n0, double n1, long& row0, 
   row1 = clamp_to(std::ceil((north() - n0) / cellsize - 0.5), nrows);
 }
 
+CrsUnit crs_unit_from_text(const std::string& text) {
+  const std::string t = skip_bom(text);
+  CrsUnit u;
+  WktNode root;
+  if (WktParser(t).parse(root)) return unit_of_wkt(root);
+  if (unit_of_esri_text(t, u)) return u;
+  return {};
+}
+
 bool wkt_is_geographic(const std::string& wkt) {
   const auto a = wkt.find_first_not_of(" \t\r\n");
   if (a == std::string::npos) return false;
@@ -238,6 +458,7 @@ bool wkt_is_geographic(const std::string& wkt) {
 }
 
 Raster read_esri_ascii(const std::string& path) {
+  check_regular(path, kMaxAsciiBytes, "ESRI ASCII grids");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(where(path) + (std::filesystem::exists(path) ? "cannot be read" : "no such raster file"));
   std::ostringstream ss;
@@ -290,8 +511,9 @@ Raster read_esri_ascii(const std::string& path) {
     if (!has[k]) throw InputError(where(path, line) + "the header has no '" + names[k] + "'");
   r.west = x_centre ? x - 0.5 * r.cellsize : x;
   r.south = y_centre ? y - 0.5 * r.cellsize : y;
+  check_extent(r, path, line);
   const size_t n = static_cast<size_t>(r.ncols * r.nrows);
-  r.values.reserve(n);
+  r.values.reserve(std::min(n, text.size() / 2 + 1));  // a value takes at least 2 bytes
   const double tol = 1e-6 * std::fabs(nodata);  // NODATA written in float precision (-3.4e38)
   for (bool first = true;; first = false) {
     if (!first && !words.next(w, line)) break;
@@ -310,11 +532,13 @@ Raster read_esri_ascii(const std::string& path) {
   std::filesystem::path prj(path);
   prj.replace_extension(".prj");
   if (std::filesystem::exists(prj)) {
+    check_regular(prj.string(), kMaxPrjBytes, "coordinate systems (.prj)");
     std::ifstream p(prj, std::ios::binary);
     std::ostringstream wkt;
     wkt << p.rdbuf();
-    r.crs = wkt.str();
-    if (wkt_is_geographic(r.crs)) refuse_geographic(path, ", " + prj.string());
+    r.crs = skip_bom(wkt.str());  // maps/*.prj get it without the BOM
+    if (r.crs.find_first_not_of(" \t\r\n") == std::string::npos) r.crs.clear();  // empty: none
+    else check_crs(path, prj.string(), r.crs);
   }
   return r;
 }
@@ -381,6 +605,7 @@ bool raster_gdal_available() {
 Raster read_raster(const std::string& path) {
   if (lower(std::filesystem::path(path).extension().string()) == ".asc") return read_esri_ascii(path);
   if (!std::filesystem::exists(path)) throw InputError(where(path) + "no such raster file");
+  check_regular(path, std::numeric_limits<double>::infinity(), "rasters");  // GDAL reads what it needs
 #ifdef GRANFLOW_WITH_GDAL
   return read_gdal(path);
 #else

@@ -191,6 +191,140 @@ TEST(Raster, GeographicCoordinateSystemIsRefused) {
   EXPECT_FALSE(io::wkt_is_geographic("PROJCRS[\"x\", BASEGEOGCRS[\"WGS 84\"]]"));
 }
 
+namespace {
+// A projected system in US survey feet (NAD83 / California zone 3 (ftUS), as GDAL writes it).
+const char* kFeetWkt =
+    "PROJCS[\"NAD83 / California zone 3 (ftUS)\",GEOGCS[\"NAD83\",DATUM[\"North_American_Datum_1983\","
+    "SPHEROID[\"GRS 1980\",6378137,298.257222101]],PRIMEM[\"Greenwich\",0],UNIT[\"degree\",0.0174532925199433]],"
+    "PROJECTION[\"Lambert_Conformal_Conic_2SP\"],PARAMETER[\"standard_parallel_1\",38.4333333333333],"
+    "PARAMETER[\"standard_parallel_2\",37.0666666666667],PARAMETER[\"latitude_of_origin\",36.5],"
+    "PARAMETER[\"central_meridian\",-120.5],PARAMETER[\"false_easting\",6561666.667],"
+    "PARAMETER[\"false_northing\",1640416.667],UNIT[\"US survey foot\",0.304800609601219]]";
+const char* kUtmWkt =
+    "PROJCS[\"WGS 84 / UTM zone 32N\",GEOGCS[\"WGS 84\",DATUM[\"WGS_1984\",SPHEROID[\"WGS 84\",6378137,"
+    "298.257223563]],PRIMEM[\"Greenwich\",0],UNIT[\"degree\",0.0174532925199433]],PROJECTION[\"Transverse_Mercator\"],"
+    "PARAMETER[\"latitude_of_origin\",0],PARAMETER[\"central_meridian\",9],PARAMETER[\"scale_factor\",0.9996],"
+    "PARAMETER[\"false_easting\",500000],PARAMETER[\"false_northing\",0],UNIT[\"metre\",1]]";
+const char* kEsriGeoWkt =
+    "GEOGCS[\"GCS_WGS_1984\",DATUM[\"D_WGS_1984\",SPHEROID[\"WGS_1984\",6378137.0,298.257223563]],"
+    "PRIMEM[\"Greenwich\",0.0],UNIT[\"Degree\",0.0174532925199433]]";
+const char* kEsriGeoText =
+    "Projection    GEOGRAPHIC\nDatum         WGS84\nSpheroid      WGS84\nUnits         DD\nZunits        NO\n"
+    "Parameters\n";
+const char* kEsriFeetText = "Projection    UTM\nZone          10\nDatum         NAD83\nUnits         FEET\n"
+                            "Spheroid      GRS80\nParameters\n";
+const char* kWkt2Feet =
+    "PROJCRS[\"local feet\",BASEGEOGCRS[\"WGS 84\",DATUM[\"World Geodetic System 1984\",ELLIPSOID[\"WGS 84\","
+    "6378137,298.257223563]],ANGLEUNIT[\"degree\",0.0174532925199433]],CONVERSION[\"UTM zone 10N\","
+    "METHOD[\"Transverse Mercator\"],PARAMETER[\"Latitude of natural origin\",0,ANGLEUNIT[\"degree\","
+    "0.0174532925199433]],PARAMETER[\"Longitude of natural origin\",-123,ANGLEUNIT[\"degree\",0.0174532925199433]],"
+    "PARAMETER[\"Scale factor at natural origin\",0.9996,SCALEUNIT[\"unity\",1]],PARAMETER[\"False easting\","
+    "1640416.667,LENGTHUNIT[\"foot\",0.3048]],PARAMETER[\"False northing\",0,LENGTHUNIT[\"foot\",0.3048]]],"
+    "CS[Cartesian,2],AXIS[\"easting\",east,ORDER[1],LENGTHUNIT[\"foot\",0.3048]],"
+    "AXIS[\"northing\",north,ORDER[2],LENGTHUNIT[\"foot\",0.3048]]]";
+const std::string kBom = "\xEF\xBB\xBF";
+}  // namespace
+
+// Every form of a .prj is read for its unit, with and without a BOM: geographic systems (OGC
+// WKT 1 and 2, ESRI's WKT, ESRI's older Projection/Units lines) are refused, so are linear units
+// other than the metre (named, with the .prj); a projected system in metres is taken, and its
+// text reaches maps/*.prj without the BOM. crs_unit_from_text is what a build without GDAL uses.
+TEST(Raster, PrjInEveryFormIsCheckedForMetres) {
+  using K = io::CrsUnit;
+  struct Form {
+    const char* name;
+    std::string text;
+    K::Kind kind;
+    const char* needle;  // in the error after the raster's path
+  };
+  const Form forms[] = {
+      {"wkt1_geo", "GEOGCS[\"WGS 84\",DATUM[\"WGS_1984\",SPHEROID[\"WGS 84\",6378137,298.257223563]],"
+                   "PRIMEM[\"Greenwich\",0],UNIT[\"degree\",0.0174532925199433]]",
+       K::Geographic, "the raster is in a geographic coordinate system (degrees, "},
+      {"bom_geo", kBom + kEsriGeoWkt, K::Geographic, "the raster is in a geographic coordinate system (degrees, "},
+      {"esri_geo", kEsriGeoWkt, K::Geographic, "the raster is in a geographic coordinate system (degrees, "},
+      {"esri_text_geo", kEsriGeoText, K::Geographic, "the raster is in a geographic coordinate system (degrees, "},
+      {"wkt2_geo", "GEOGCRS[\"WGS 84\",DATUM[\"World Geodetic System 1984\",ELLIPSOID[\"WGS 84\",6378137,"
+                   "298.257223563]],CS[ellipsoidal,2],AXIS[\"latitude\",north],AXIS[\"longitude\",east],"
+                   "ANGLEUNIT[\"degree\",0.0174532925199433]]",
+       K::Geographic, "the raster is in a geographic coordinate system (degrees, "},
+      {"feet", kFeetWkt, K::OtherUnit, "the coordinate system's unit is 'US survey foot' (0.3048006096 m, "},
+      {"bom_feet", kBom + kFeetWkt, K::OtherUnit, "the coordinate system's unit is 'US survey foot'"},
+      {"esri_text_feet", kEsriFeetText, K::OtherUnit, "the coordinate system's unit is '"},
+      {"wkt2_feet", kWkt2Feet, K::OtherUnit, "the coordinate system's unit is '"},
+      {"junk", "hello", K::Unknown, "cannot tell the coordinate system of "},
+  };
+  const TempDir t;
+  for (const Form& f : forms) {
+    EXPECT_EQ(io::crs_unit_from_text(f.text).kind, f.kind) << f.name;
+    const std::string path = t.write(std::string(f.name) + ".asc", kGrid);
+    const std::string prj = t.write(std::string(f.name) + ".prj", f.text);
+    const std::string msg = error_of(path);
+    EXPECT_EQ(msg.rfind(path + ": " + f.needle, 0), 0u) << f.name << ": " << msg;
+    EXPECT_NE(msg.find(prj), std::string::npos) << f.name << ": " << msg;
+  }
+  const io::CrsUnit feet = io::crs_unit_from_text(kFeetWkt);
+  EXPECT_EQ(feet.unit, "US survey foot");
+  EXPECT_NEAR(feet.metres, 1200.0 / 3937.0, 1e-14);
+  EXPECT_EQ(io::crs_unit_from_text(kEsriFeetText).unit, "FEET");
+  EXPECT_DOUBLE_EQ(io::crs_unit_from_text(kWkt2Feet).metres, 0.3048);
+  // metres: taken, the BOM dropped; an empty .prj is no coordinate system
+  for (const std::string& text : {std::string(kUtmWkt), kBom + kUtmWkt, std::string("Projection UTM\nUnits METERS\n")}) {
+    EXPECT_EQ(io::crs_unit_from_text(text).kind, K::Metres) << text;
+    t.write("m.prj", text);
+    const io::Raster r = io::read_raster(t.write("m.asc", kGrid));
+    EXPECT_EQ(r.crs, text.rfind(kBom, 0) == 0 ? text.substr(3) : text);
+  }
+  t.write("e.prj", kBom + "\n");
+  EXPECT_TRUE(io::read_raster(t.write("e.asc", kGrid)).crs.empty());
+}
+
+// Cells finer than the coordinates resolve in double precision are refused from the header:
+// the rule is cellsize >= 1e-10 x the largest |easting| or |northing| of the raster's corners.
+TEST(Raster, CellsBelowTheCoordinatesResolutionAreRefused) {
+  const TempDir t;
+  auto grid = [](const char* x, const char* cell) {
+    return std::string("ncols 2\nnrows 2\nxllcorner ") + x + "\nyllcorner 0\ncellsize " + cell + "\n1 2\n3 4\n";
+  };
+  const std::string far = t.write("far.asc", grid("1e17", "0.04"));  // the case: 16 m between doubles
+  const std::string msg = error_of(far);
+  EXPECT_EQ(msg.rfind(far + ":6: cells of 0.04 m at coordinates up to 1e+17 m", 0), 0u) << msg;
+  EXPECT_NE(msg.find("at least 1e-10 x the largest |easting| or |northing| (10000000 m here)"), std::string::npos)
+      << msg;
+  // at 1e8 m the limit is 1e-2 m (the east edge lies 2 cells further: 1.0000000002e-2)
+  EXPECT_NE(error_of(t.write("below.asc", grid("1e8", "0.0099"))).find("cells of 0.0099 m"), std::string::npos);
+  EXPECT_EQ(io::read_raster(t.write("above.asc", grid("1e8", "0.0101"))).cellsize, 0.0101);
+  // a UTM northing of 4e6 m keeps cells of 1 mm (limit 0.4 mm)
+  EXPECT_EQ(io::read_raster(t.write("utm.asc", grid("4e6", "0.001"))).cellsize, 0.001);
+}
+
+// Sizes are checked before anything is allocated or read: a header of 1e10 cells, a raster or
+// .prj that is a link to /dev/zero (a file that never ends), a folder.
+TEST(Raster, OversizedAndEndlessFilesAreRefusedBeforeReading) {
+  const TempDir t;
+  const std::string huge =
+      t.write("huge.asc", "ncols 100000\nnrows 100000\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2\n");
+  const std::string msg = error_of(huge);
+  EXPECT_EQ(msg.rfind(huge + ":6: ncols x nrows = 100000 x 100000 = 10000000000 cells would need 80 GB", 0), 0u)
+      << msg;
+  EXPECT_NE(msg.find("at most 250000000 cells"), std::string::npos) << msg;
+  // under the limit but far more than the file holds: counted, not reserved
+  const std::string few = t.write("few.asc", "ncols 10000\nnrows 10000\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2\n");
+  EXPECT_NE(error_of(few).find(":6: 2 values, but ncols x nrows = 10000 x 10000 = 100000000"), std::string::npos);
+  for (const char* name : {"zero.asc", "zero.tif"}) {
+    const std::string link = (t.dir / name).string();
+    std::filesystem::create_symlink("/dev/zero", link);
+    const std::string m = error_of(link);
+    EXPECT_EQ(m.rfind(link + ": not a regular file (a device, FIFO or folder, linked to /dev/zero)", 0), 0u) << m;
+  }
+  const std::string asc = t.write("dem.asc", kGrid);
+  std::filesystem::create_symlink("/dev/zero", t.dir / "dem.prj");
+  const std::string m = error_of(asc);
+  EXPECT_EQ(m.rfind((t.dir / "dem.prj").string() + ": not a regular file", 0), 0u) << m;
+  std::filesystem::create_directory(t.dir / "folder.asc");
+  EXPECT_NE(error_of((t.dir / "folder.asc").string()).find("folder.asc: not a regular file"), std::string::npos);
+}
+
 #ifdef GRANFLOW_WITH_GDAL
 namespace {
 // The hand-written grid as a GeoTIFF (and in CRS `epsg`, 0: none), through GDAL.
@@ -244,6 +378,10 @@ TEST(Raster, GeoTiffThroughGdalGivesTheSameElevations) {
   EXPECT_NE(error_of(geo).find(geo + ": the raster is in a geographic coordinate system"), std::string::npos)
       << error_of(geo);
   EXPECT_NE(error_of(t.write("junk.tif", "not a tiff")).find("not a raster GDAL can read"), std::string::npos);
+  // a GeoTIFF in US survey feet: refused as its .asc twin is, naming the unit
+  const std::string feet = write_geotiff(t.dir / "feet.tif", 2227);
+  EXPECT_EQ(error_of(feet).rfind(feet + ": the coordinate system's unit is 'US survey foot' (0.3048006096 m)", 0), 0u)
+      << error_of(feet);
 }
 #else
 TEST(Raster, WithoutGdalOnlyAsciiGridsAreRead) {

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -118,9 +119,10 @@ std::vector<std::vector<double>> deposit_rows(const fs::path& out) {
 }  // namespace
 
 // A block at rest on the flat raster, its sides on cell edges (columns and rows 2 and 3 from the
-// west and south): the thickness map holds its height on the four cells it covers, 0 on the rest
-// of the footprint and NODATA outside it; the map reads back through the raster reader with the
-// terrain's georeferencing and coordinate system; deposit.csv gives the block's volume, area and
+// west and south): the thickness map holds its height on the four cells it covers and 0 on the
+// rest of the footprint; the map holds the footprint's cells only (columns and rows 1 to 5 of the
+// raster: its corner is the grid's) and reads back through the raster reader with the terrain's
+// cell size and coordinate system; deposit.csv gives the block's volume, area and
 // extent along x (within 5 % of a spacing: its free edges bulge by 0.3 mm under the K0 stress).
 TEST(TerrainMaps, BlockAtRestGivesItsHeightAndVolume) {
   const double H = 0.06;
@@ -134,32 +136,29 @@ TEST(TerrainMaps, BlockAtRestGivesItsHeightAndVolume) {
 
   const io::Raster m = io::read_esri_ascii((s.dir / "maps" / "deposit_thickness.asc").string());
   const io::Raster& ground = *sc.terrain->raster;
-  EXPECT_EQ(m.ncols, ground.ncols);
-  EXPECT_EQ(m.nrows, ground.nrows);
-  EXPECT_DOUBLE_EQ(m.west, ground.west);
-  EXPECT_DOUBLE_EQ(m.south, ground.south);
+  EXPECT_EQ(m.ncols, 5);
+  EXPECT_EQ(m.nrows, 5);
+  EXPECT_NEAR(m.west, kE0 + sc.origin[0], 1e-9);  // the grid's corner, a raster cell edge
+  EXPECT_NEAR(m.south, kN0 + sc.origin[2], 1e-9);
   EXPECT_DOUBLE_EQ(m.cellsize, ground.cellsize);
   EXPECT_NE(m.crs.find(kCrs), std::string::npos) << m.crs;  // the .prj beside it
   for (long row = 0; row < m.nrows; ++row)
     for (long col = 0; col < m.ncols; ++col) {
       const long k = m.nrows - 1 - row;  // from the south
-      const bool inside = col >= 1 && col <= 5 && k >= 1 && k <= 5;
-      const bool covered = (col == 2 || col == 3) && (k == 2 || k == 3);
+      const bool covered = (col == 1 || col == 2) && (k == 1 || k == 2);
       const double v = m.at(row, col);
-      if (!inside)
-        EXPECT_TRUE(std::isnan(v)) << "row " << row << ", col " << col << ": " << v;
-      else if (covered)
+      if (covered)
         EXPECT_NEAR(v, H, 1e-9) << "row " << row << ", col " << col;
       else
         EXPECT_EQ(v, 0.0) << "row " << row << ", col " << col;
     }
   const io::Raster terrain = io::read_esri_ascii((s.dir / "maps" / "terrain.asc").string());
-  EXPECT_EQ(terrain.at(3, 3), kZ0);
-  EXPECT_TRUE(std::isnan(terrain.at(0, 0)));
+  ASSERT_EQ(terrain.values.size(), 25u);
+  for (double z : terrain.values) EXPECT_EQ(z, kZ0);
   if (io::raster_gdal_available()) {  // the GeoTIFF holds the same cells
     const io::Raster tif = io::read_raster((s.dir / "maps" / "deposit_thickness.tif").string());
-    EXPECT_DOUBLE_EQ(tif.west, ground.west);
-    EXPECT_DOUBLE_EQ(tif.south, ground.south);
+    EXPECT_DOUBLE_EQ(tif.west, m.west);
+    EXPECT_DOUBLE_EQ(tif.south, m.south);
     for (size_t i = 0; i < m.values.size(); ++i)
       if (std::isnan(m.values[i])) EXPECT_TRUE(std::isnan(tif.values[i])); else EXPECT_NEAR(tif.values[i], m.values[i], 1e-8);
   }
@@ -172,7 +171,7 @@ TEST(TerrainMaps, BlockAtRestGivesItsHeightAndVolume) {
     EXPECT_NEAR(r[4], 0.08, 0.05 * su.spacing);                   // extent along x (its edges bulge)
   }
   std::printf("block at rest: thickness %.6f m on its cells (height %.3f), volume %.6e m^3, extent %.5f m\n",
-              m.at(m.nrows - 1 - 2, 2), H, rows.back()[3], rows.back()[4]);
+              m.at(m.nrows - 1 - 1, 1), H, rows.back()[3], rows.back()[4]);
 }
 
 // A column collapsing on the flat raster: the maxima are not below the final values, cell by
@@ -196,7 +195,7 @@ TEST(TerrainMaps, MaximaAreNotBelowTheFinalValuesAndSurviveARestart) {
     if (dep.values[i] > 0) spread += 1;
     fastest = std::max(fastest, speed.values[i]);
   }
-  const long row = dep.nrows - 1 - 3, col = 3;  // the column's cell (from the south: 3)
+  const long row = dep.nrows - 1 - 2, col = 2;  // the column's cell (raster column and row 3; the map starts at 1)
   EXPECT_NEAR(depth.at(row, col), H, 1e-9);
   EXPECT_LT(dep.at(row, col), H - 0.01);  // it collapsed
   EXPECT_GT(spread, 1);
@@ -220,8 +219,8 @@ TEST(TerrainMaps, MaximaAreNotBelowTheFinalValuesAndSurviveARestart) {
 
 // A raster finer than the point spacing (4 mm cells, 1 cm spacing) stripes the thickness map: a
 // cell holds a column of points or none. output.map_cell = 2 cm joins 5 x 5 raster cells per
-// map cell: the block's cells read its height, the map keeps the raster's corner, and both maps
-// hold the block's whole volume.
+// map cell: the block's cells read its height, the map's cells are those of the raster's blocks
+// over the footprint, and both maps hold the block's whole volume.
 TEST(TerrainMaps, MapCellJoinsRasterCellsAndEndsTheStripes) {
   const double H = 0.04;
   auto fine = std::make_shared<io::Raster>(*flat_raster());
@@ -240,12 +239,13 @@ TEST(TerrainMaps, MapCellJoinsRasterCellsAndEndsTheStripes) {
   ASSERT_TRUE(run_to(sj, b.dir).ok);
   const io::Raster mf = io::read_esri_ascii((a.dir / "maps" / "deposit_thickness.asc").string());
   const io::Raster mj = io::read_esri_ascii((b.dir / "maps" / "deposit_thickness.asc").string());
-  EXPECT_EQ(mf.ncols, 80);
-  EXPECT_EQ(mj.ncols, 16);
-  EXPECT_EQ(mj.nrows, 16);
+  EXPECT_EQ(mf.ncols, 50);  // raster columns 10 to 59 (of 80) under the 20 cm footprint
+  EXPECT_EQ(mj.ncols, 10);  // blocks 2 to 11 (of 16)
+  EXPECT_EQ(mj.nrows, 10);
   EXPECT_DOUBLE_EQ(mj.cellsize, 0.02);
-  EXPECT_DOUBLE_EQ(mj.west, fine->west);
-  EXPECT_DOUBLE_EQ(mj.south, fine->south);
+  EXPECT_NEAR(mj.west, fine->west + 2 * 0.02, 1e-9);
+  EXPECT_NEAR(mj.south, fine->south + 2 * 0.02, 1e-9);
+  EXPECT_NEAR(mf.west, fine->west + 10 * 0.004, 1e-9);
   auto volume = [](const io::Raster& m) {
     double v = 0;
     for (double t : m.values)
@@ -254,22 +254,22 @@ TEST(TerrainMaps, MapCellJoinsRasterCellsAndEndsTheStripes) {
   };
   EXPECT_NEAR(volume(mf), 0.08 * 0.08 * H, 1e-10);
   EXPECT_NEAR(volume(mj), 0.08 * 0.08 * H, 1e-10);
-  // under the block (x, z in [0.04, 0.12] m: raster columns 20 to 39 from the west, 4 mm each)
+  // under the block (x, z in [0.04, 0.12] m: raster columns 20 to 39 from the west, 4 mm each; map 10 to 29)
   double lo = 1e9, hi = 0;
-  for (long k = 21; k < 39; ++k)
-    for (long col = 21; col < 39; ++col) {
+  for (long k = 11; k < 29; ++k)
+    for (long col = 11; col < 29; ++col) {
       lo = std::min(lo, mf.at(mf.nrows - 1 - k, col));
       hi = std::max(hi, mf.at(mf.nrows - 1 - k, col));
     }
   EXPECT_EQ(lo, 0.0);
   EXPECT_GT(hi, 3 * H);
-  for (long k = 4; k < 8; ++k)  // map cells of 2 cm: the block covers 4 to 7 whole
-    for (long col = 4; col < 8; ++col) EXPECT_NEAR(mj.at(mj.nrows - 1 - k, col), H, 1e-9) << k << ", " << col;
+  for (long k = 2; k < 6; ++k)  // map cells of 2 cm: the block covers blocks 4 to 7 whole (map 2 to 5)
+    for (long col = 2; col < 6; ++col) EXPECT_NEAR(mj.at(mj.nrows - 1 - k, col), H, 1e-9) << k << ", " << col;
   const io::Raster terrain = io::read_esri_ascii((b.dir / "maps" / "terrain.asc").string());
   EXPECT_EQ(terrain.cellsize, 0.02);
-  EXPECT_EQ(terrain.at(terrain.nrows - 1 - 5, 5), kZ0);
+  EXPECT_EQ(terrain.at(terrain.nrows - 1 - 3, 3), kZ0);
   std::printf("map cells of 4 mm: thickness %.3f to %.3f m under a %.2f m block; of 2 cm: %.6f m\n", lo, hi, H,
-              mj.at(mj.nrows - 1 - 5, 5));
+              mj.at(mj.nrows - 1 - 3, 3));
 }
 
 // A 2D scene over a base gets the maps as a profile along x (deposit_profile.csv, bins of h or
@@ -329,6 +329,97 @@ TEST(TerrainMaps, TwoDimensionalRunOverABaseWritesProfiles) {
     std::printf("2D profile, bins %.2f m: final deposit length %.3f m, area %.5f m^2/m, extent %.3f m\n", w, r[2], r[3],
                 r[4]);
   }
+}
+
+// A DEM far larger than the grid (40 x 30 cells of 3 cm, NODATA but for the cells around the
+// footprint, whose edges fall inside cells): the maps hold the 7 x 7 cells that overlap the 20 cm
+// footprint (raster columns and rows 10 to 16: (0.305 m + [0, 0.2 m]) / 0.03 m), on the raster's
+// own cells, with no NODATA (the terrain map's cells are the raster's cells with values) and the
+// block's volume.
+TEST(TerrainMaps, MapsAreCroppedToTheFootprintOnTheRastersCells) {
+  auto dem = std::make_shared<io::Raster>(*flat_raster());
+  dem->ncols = 40;
+  dem->nrows = 30;
+  dem->cellsize = 0.03;
+  dem->west = kE0 - 0.305;
+  dem->south = kN0 - 0.305;
+  dem->values.assign(40 * 30, std::numeric_limits<double>::quiet_NaN());
+  for (long k = 9; k <= 17; ++k)  // from the south; the interpolation reads one cell beyond the footprint's
+    for (long c = 9; c <= 17; ++c) dem->values[static_cast<size_t>((29 - k) * 40 + c)] = kZ0;
+  const double H = 0.04;
+  Scene sc = block_scene(0.04, 0.12, 0.04, 0.12, H, 0.01, 0.5);
+  sc.initial.geostatic = true;
+  sc.terrain->raster = dem;
+  Scratch s("cropped");
+  ASSERT_TRUE(run_to(make_setup(sc), s.dir).ok);
+  const io::Raster m = io::read_esri_ascii((s.dir / "maps" / "deposit_thickness.asc").string());
+  const io::Raster t = io::read_esri_ascii((s.dir / "maps" / "terrain.asc").string());
+  for (const io::Raster* r : {&m, &t}) {
+    EXPECT_EQ(r->ncols, 7);
+    EXPECT_EQ(r->nrows, 7);
+    EXPECT_NEAR(r->west, kE0 - 0.305 + 10 * 0.03, 1e-9);
+    EXPECT_NEAR(r->south, kN0 - 0.305 + 10 * 0.03, 1e-9);
+    EXPECT_EQ(r->cellsize, 0.03);
+  }
+  double volume = 0;
+  for (long row = 0; row < 7; ++row)
+    for (long col = 0; col < 7; ++col) {
+      ASSERT_FALSE(std::isnan(m.at(row, col)));
+      volume += m.at(row, col) * 0.03 * 0.03;
+      EXPECT_EQ(t.at(row, col), kZ0) << row << ", " << col;  // no NODATA cell of the raster
+    }
+  EXPECT_NEAR(volume, 0.08 * 0.08 * H, 1e-10);
+}
+
+// Map cells are counted before anything is allocated and must be resolvable in the positions'
+// precision: a 2D profile with output.map_cell = 1e-9 m (2e8 bins over the 0.2 m grid) is
+// refused naming the key; a 3D terrain with terrain.origin at 0 leaves scene coordinates of
+// 4e6 m, where fp32 positions resolve 0.5 m: its 4 cm cells are refused in fp32 (limit 1e-4 x
+// 4e6 m = 400 m) naming terrain.file, and taken in fp64 (limit 4e-4 m).
+TEST(TerrainMaps, MapCellsAreCountedAndResolvedBeforeTheRun) {
+  auto refusal = [](const Scene& sc, std::string& key) {
+    try {
+      make_setup(sc);
+    } catch (const SceneError& e) {
+      key = e.key();
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  Scene flat = test::tiny_column(ModelKind::Frictional);
+  BaseLine b;
+  b.x = {flat.origin[0], flat.origin[0] + flat.size[0]};
+  b.y = {flat.origin[1], flat.origin[1]};
+  flat.base = b;
+  flat.output.map_cell = 1e-9;
+  std::string key;
+  std::string msg = refusal(flat, key);
+  EXPECT_EQ(key, "output.map_cell");
+  EXPECT_NE(msg.find("map cells of 1e-09 m give " + [&] {
+              std::ostringstream os;
+              os << std::ceil(flat.size[0] / 1e-9);
+              return os.str();
+            }() + " cells"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("at most 10000000 are allowed"), std::string::npos) << msg;
+
+  Scene far = block_scene(0.04, 0.12, 0.04, 0.12, 0.04, 0.01, 0.5);
+  far.terrain->origin = {0.0, 0.0, kZ0};  // scene x, z = easting, northing
+  far.origin[0] += kE0;
+  far.origin[2] += kN0;
+  far.bodies[0].box_min[0] += kE0;
+  far.bodies[0].box_max[0] += kE0;
+  far.bodies[0].box_min[2] += kN0;
+  far.bodies[0].box_max[2] += kN0;
+  far.precision = Precision::FP32;
+  msg = refusal(far, key);
+  EXPECT_EQ(key, "terrain.file");
+  EXPECT_NE(msg.find("map cells of 0.04 m (terrain.file; output.map_cell sets them) at scene coordinates up to "
+                     "4e+06 m: fp32 positions resolve 0.48 m there"),
+            std::string::npos)
+      << msg;
+  EXPECT_NE(msg.find("at least 0.0001 x the largest |x| or |z| of the grid (400 m"), std::string::npos) << msg;
+  far.precision = Precision::FP64;
+  EXPECT_EQ(refusal(far, key), "");
 }
 
 // Without terrain nothing is measured or written; a checkpoint's maps must fit the footprint.

@@ -184,20 +184,22 @@ void TerrainMaps::write_maps(const std::string& dir, const Frame& final_frame) c
   const io::Raster& terrain = *su_->scene.terrain->raster;
   const std::string folder = dir + "/maps";
   io::make_folder(folder);
-  io::Raster m;  // the map cells, georeferenced like the terrain
-  m.ncols = ncols_;
-  m.nrows = nrows_;
-  m.west = terrain.west;
-  m.south = terrain.south;
+  // The window of map cells over the grid's footprint, on the terrain's cell lattice: a cell keeps
+  // its position, the cells outside the footprint (NODATA) are left out.
+  io::Raster m;
+  m.ncols = col1 - col0 + 1;
+  m.nrows = row1 - row0 + 1;
+  m.west = terrain.west + static_cast<double>(col0) * cellsize_;
+  m.south = terrain.south + static_cast<double>(nrows_ - 1 - row1) * cellsize_;
   m.cellsize = cellsize_;
   m.crs = terrain.crs;
-  const long wc = col1 - col0 + 1;
   auto write = [&](const std::string& name, const std::vector<double>& window, bool from_terrain) {
-    m.values.assign(static_cast<size_t>(ncols_ * nrows_), std::numeric_limits<double>::quiet_NaN());
+    m.values.assign(static_cast<size_t>(m.ncols * m.nrows), 0.0);
     for (long row = row0; row <= row1; ++row)
-      for (long col = col0; col <= col1; ++col)
-        m.values[static_cast<size_t>(row * m.ncols + col)] =
-            from_terrain ? terrain_mean(row, col) : window[static_cast<size_t>((row - row0) * wc + (col - col0))];
+      for (long col = col0; col <= col1; ++col) {
+        const size_t k = static_cast<size_t>((row - row0) * m.ncols + (col - col0));
+        m.values[k] = from_terrain ? terrain_mean(row, col) : window[k];
+      }
     const std::string base = folder + "/" + name;
     io::write_file(base + ".asc", io::esri_ascii_text(m), io::Durability::Buffered);
     if (!m.crs.empty()) io::write_file(base + ".prj", m.crs + "\n", io::Durability::Buffered);

@@ -676,6 +676,7 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
   }
 
   if (auto o = root.optional_table("output")) {
+    if (o->has("map_cell")) note(*o, "map_cell");  // make_setup counts the map cells
     if (o->has("times")) sc.output.times = o->numbers("times", Bounds::non_negative());
     sc.output.series_dt = o->number_or("series_dt", 1e-3, Bounds::positive());
     note(*o, "series_dt");  // checked against time.dt by make_setup, after the stable step

@@ -19,6 +19,11 @@ namespace {
 
 constexpr int kPad = 3;  // grid cells added around the scene box (walls sit inside the grid)
 constexpr double kMaxNodes = 4e8;
+constexpr double kMaxMapCells = 1e7;  // maps' cells over the footprint (about 50 bytes each while written)
+
+// Smallest map cell over the largest |scene coordinate|: positions resolve 2.2e-16 (fp64) or
+// 1.2e-7 (fp32 storage) times it, so a cell spans at least 450,000 or 840 distinct positions.
+double min_cell_over_coordinate(Precision p) { return p == Precision::FP64 ? 1e-10 : 1e-4; }
 
 }  // namespace
 
@@ -76,6 +81,32 @@ SceneSetup make_setup(const Scene& sc) {
                                                sc.origin[2] + sc.size[2]);
     if (!miss.empty())
       fail("terrain.file", miss + ", the grid's footprint (grid.origin and grid.size in x and z, plus terrain.origin)");
+  }
+
+  // Maps (output/maps.cpp): a 2D profile's bins or the 3D map cells over the footprint, counted
+  // before they are allocated, and resolvable in the positions' precision. Scene coordinates are
+  // the georeferenced ones minus terrain.origin, so what counts is what remains after that shift.
+  if ((D == 2 && sc.base) || (D == 3 && ground)) {
+    const bool set = sc.output.map_cell > 0;
+    const std::string key = set ? "output.map_cell" : (D == 2 ? "grid.h" : "terrain.file");
+    const double cell = set ? sc.output.map_cell : (D == 2 ? sc.h : sc.terrain->raster->cellsize);
+    double cells = 1, reach = 0;
+    for (int d = 0; d < D; d += 2) {  // x (and z): the plan axes
+      cells *= std::ceil(sc.size[d] / cell) + (D == 3 ? 1 : 0);  // in 3D the cells may straddle both edges
+      reach = std::max({reach, std::fabs(sc.origin[d]), std::fabs(sc.origin[d] + sc.size[d])});
+    }
+    const std::string what = "map cells of " + fmt(cell) + " m" + (set ? "" : " (" + key + "; output.map_cell sets them)");
+    if (!(cells <= kMaxMapCells))
+      fail(key, what + " give " + fmt(cells) + " cells over the grid's footprint (about " + detail::gb(50 * cells) +
+                    " while the maps are written); at most " + std::to_string(static_cast<long>(kMaxMapCells)) +
+                    " are allowed: set a larger output.map_cell");
+    const double k = min_cell_over_coordinate(sc.precision);
+    if (!(cell >= k * reach))
+      fail(key, what + " at scene coordinates up to " + fmt(reach) + " m: " + precision_name(sc.precision) +
+                    " positions resolve " + fmt(reach * (sc.precision == Precision::FP64 ? 2.2e-16 : 1.2e-7)) +
+                    " m there, and map cells must be at least " + fmt(k) + " x the largest |x| or |z| of the grid (" +
+                    fmt(k * reach) + " m; 1e-10 x in fp64, 1e-4 x in fp32 and mixed): bring grid.origin" +
+                    (D == 3 ? " and terrain.origin nearer the material" : " nearer 0") + " or use larger cells");
   }
 
   // Particles on a lattice of spacing h / ppc_axis (scene/seeding.cpp), their initial stress and

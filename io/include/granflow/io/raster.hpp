@@ -1,7 +1,9 @@
 // Elevation rasters (digital elevation models): ESRI ASCII grids (.asc) in every build, GeoTIFF
 // and the other GDAL formats where the build found GDAL (raster_gdal_available). Georeferenced in
-// metres: a raster in a geographic (degrees) coordinate system is refused, one without a
-// coordinate system is taken as metres. Errors are InputErrors naming the file (and line).
+// metres: a raster in a geographic (degrees) coordinate system or in another linear unit is
+// refused (every .prj form: WKT, ESRI's WKT and text, a BOM), one without a coordinate system is
+// taken as metres; sizes and cell resolution are checked from the header before allocating.
+// Errors are InputErrors naming the file (and line).
 #pragma once
 
 #include <string>
@@ -64,5 +66,24 @@ bool raster_gdal_available();
 
 // A coordinate system given as WKT is geographic (degrees): GEOGCS / GEOGCRS / GEODCRS at its top.
 bool wkt_is_geographic(const std::string& wkt);
+
+// What a coordinate system's text says about its horizontal unit.
+struct CrsUnit {
+  enum Kind { Metres, Geographic, OtherUnit, Unknown } kind = Unknown;
+  std::string unit;   // OtherUnit: its name as written ("US survey foot", "FEET")
+  double metres = 0;  // OtherUnit: metres per unit (0: not stated)
+};
+// The coordinate system of a .prj read from its text alone, as a build without GDAL does (builds
+// with GDAL ask OGR first and use this where OGR cannot parse it): WKT 1 and 2, ESRI's WKT, and
+// ESRI's older lines ("Projection GEOGRAPHIC", "Units FEET"). A leading UTF-8 BOM is skipped.
+CrsUnit crs_unit_from_text(const std::string& text);
+
+// Limits checked before anything is allocated (InputErrors name the file and the size needed).
+constexpr double kMaxRasterCells = 250e6;      // ncols x nrows (2 GB of doubles)
+constexpr double kMaxAsciiBytes = 4e9;         // an .asc is read whole
+constexpr double kMaxPrjBytes = 1e6;           // a .prj
+// Cells must be at least this times the largest |easting| or |northing| of the raster's corners:
+// double precision resolves 2.2e-16 times it, so a cell spans over 450,000 distinct values.
+constexpr double kMinCellOverCoordinate = 1e-10;
 
 }  // namespace granflow::io

@@ -39,8 +39,8 @@ class TerrainMaps {
 
   // The maps of the final frame, in dir/maps/: deposit_thickness, max_speed, max_depth and the
   // terrain itself, as .asc (a .prj beside each where the terrain has a coordinate system) and,
-  // with GDAL, .tif; aligned with the terrain raster (its corner; its cell size and count unless
-  // output.map_cell joins its cells), NODATA outside the grid's footprint.
+  // with GDAL, .tif; the map cells over the grid's footprint, on the terrain raster's cell lattice
+  // (its cell size unless output.map_cell joins its cells).
   void write_maps(const std::string& dir, const Frame& final_frame) const;
   // dir/deposit.csv: t, t_flow [s], area [m^2], volume [m^3], extent [m].
   void write_deposit_csv(const std::string& dir) const;
