@@ -381,7 +381,7 @@ void write_staged(const Objective& obj, const FitResult& r, io::StagedFolder& fo
   write_file(tmp / "report_parameters.csv", pc.str());
 
   std::ostringstream ic;  // identifiability.csv (docs/calibration.md)
-  ic << std::setprecision(8)
+  ic << std::setprecision(12)
      << "key,fitted,lower,upper,log,sd_range,rel_sd,lower_2sd,upper_2sd,correlated_with,condition,status\n";
   const Identifiability& id = r.identifiability;
   for (std::size_t j = 0; j < job.free.size(); ++j) {
