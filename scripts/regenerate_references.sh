@@ -1,0 +1,195 @@
+#!/usr/bin/env bash
+# Rebuilds the shipped references that a CPU makes in minutes, into their repository paths, so
+# that `git diff` shows what moved; --check compares instead and writes nothing.
+#
+#   scripts/regenerate_references.sh [--check] [--build DIR] [NAME...]
+#
+# NAME (default: all but series-2.5mm), with its time on the project's 2-core machine (shared):
+#   figures        ~2 s    granflow figures: docs/figures/fig4-7, fig6_sweep, fig7_fixed_strain,
+#                          dem_comparison, dem_errors (CSV + PNG)
+#   kfs            ~25 s   granflow calibrate data/calibration/kfs_fit.toml: data/params/kfs_fitted.toml,
+#                          docs/figures/kfs_tests.csv, kfs_identifiability.csv, kfs_*.png
+#   kfs-undrained  ~25 s   granflow calibrate data/calibration/kfs_undrained_e0.toml (the shipped set
+#                          fixed): docs/figures/kfs_undrained_e0_tests.csv, kfs_undrained_*.png
+#   hashes         ~3 min  scripts/reference_outputs.sh: docs/checks/reference_outputs.sha256
+#   series         ~4 min  the column mesh series on the CPU twin at 10 and 5 mm (fp64, dt with h):
+#                          their rows of docs/figures/mpm_column_mesh_series.csv (+ PNG)
+#   series-2.5mm   ~25 min the 2.5 mm row the same way (not in the default set)
+# The 1 mm row of the series and every table of docs/benchmarks.md are GPU-made: they name the
+# commit they were measured at and are not rebuilt here (docs/benchmarks.md, "Code").
+#
+# Tolerances of --check (scripts/compare_references.py), and why:
+#   figures: 1e-5 x each column's largest |value|. CVODE runs at rtol 1e-6; another compiler or
+#     libm may take other steps, which moves a curve by about rtol, while a change of the law or
+#     the driver that matters moves it by far more.
+#   kfs, kfs-undrained: the fitted values and the per-test errors to 1e-6 relative: the fit is
+#     bitwise the same for any thread count (docs/calibration.md), so only printing rounds; on
+#     another compiler BOBYQA's path may fork after ~1000 evaluations (then regenerate there).
+#   hashes: identical (the refactor check of docs/reliability_ci.md; machine-specific).
+#   series: run-out and height to 1e-4 m (the CPU twin is deterministic; 1e-4 m is the printed
+#     precision of the table).
+# ctest -R References runs `--check figures kfs` (tests/references/CMakeLists.txt).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+check=0
+build=build
+names=()
+while [ $# -gt 0 ]; do
+  case $1 in
+    --check) check=1 ;;
+    --build) build=$2; shift ;;
+    -h | --help) sed -n '2,/^set -euo/p' "$0" | sed '$d'; exit 0 ;;
+    *) names+=("$1") ;;
+  esac
+  shift
+done
+[ ${#names[@]} -gt 0 ] || names=(figures kfs kfs-undrained hashes series)
+G=${GRANFLOW:-$build/granflow}
+[ -x "$G" ] || { echo "no $G: build granflow first (or set GRANFLOW)" >&2; exit 2; }
+PY=${PYTHON:-python3}
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/granflow_refs.XXXXXX")
+trap 'rm -rf "$tmp"' EXIT
+fail=0
+commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
+# a tree with edited sources is not "at" its commit (docs and data edits do not change a run)
+[ -z "$(git status --porcelain --untracked-files=no -- constitutive elementtest calibration mpm io cli cmake \
+  CMakeLists.txt 2>/dev/null)" ] || commit="$commit+edits"
+
+# take SHIPPED FRESH MODE RTOL [KEY]: --check compares, else copies FRESH over SHIPPED.
+take() {
+  local shipped=$1 fresh=$2 mode=$3 rtol=$4
+  shift 4
+  if [ $check -eq 1 ]; then
+    if [ ! -f "$shipped" ]; then
+      echo "  $shipped: not shipped" >&2
+      fail=1
+    elif "$PY" scripts/compare_references.py "$mode" "$shipped" "$fresh" "$rtol" "$@"; then
+      echo "  $shipped: matches (rtol $rtol)"
+    else
+      echo "  $shipped: DIFFERS from the current code (rtol $rtol): regenerate it in the same commit" >&2
+      fail=1
+    fi
+  else
+    cp "$fresh" "$shipped"
+    echo "  wrote $shipped"
+  fi
+}
+# png FRESH SHIPPED: pictures are copied when writing, never compared.
+png() { [ $check -eq 1 ] || [ ! -f "$1" ] || cp "$1" "$2"; }
+
+ref_figures() {
+  "$G" figures --out "$tmp/fig" $([ $check -eq 1 ] && echo --no-png) >/dev/null
+  for f in fig4 fig5 fig6 fig7 fig6_sweep fig7_fixed_strain dem_comparison dem_errors; do
+    take "docs/figures/$f.csv" "$tmp/fig/$f.csv" csv 1e-5
+  done
+  for f in fig4 fig5 fig6 fig7 dem_comparison; do png "$tmp/fig/$f.png" "docs/figures/$f.png"; done
+}
+
+ref_kfs() {
+  "$G" calibrate data/calibration/kfs_fit.toml --out "$tmp/kfs" --quiet $([ $check -eq 1 ] && echo --no-plot) \
+    2>"$tmp/kfs.err" || { cat "$tmp/kfs.err" >&2; return 1; }
+  take data/params/kfs_fitted.toml "$tmp/kfs/kfs_fitted.toml" text 1e-6
+  take docs/figures/kfs_tests.csv "$tmp/kfs/tests.csv" csv 1e-6
+  take docs/figures/kfs_identifiability.csv "$tmp/kfs/identifiability.csv" csv 1e-6
+  for f in q_eps1 q_p epsv_eps1 e_logp; do png "$tmp/kfs/tests_$f.png" "docs/figures/kfs_$f.png"; done
+}
+
+ref_kfs_undrained() {
+  "$G" calibrate data/calibration/kfs_undrained_e0.toml --out "$tmp/kfsu" --quiet \
+    $([ $check -eq 1 ] && echo --no-plot) 2>"$tmp/kfsu.err" || { cat "$tmp/kfsu.err" >&2; return 1; }
+  take docs/figures/kfs_undrained_e0_tests.csv "$tmp/kfsu/tests.csv" csv 1e-6
+  for f in q_p q_eps1; do png "$tmp/kfsu/tests_$f.png" "docs/figures/kfs_undrained_$f.png"; done
+}
+
+ref_hashes() {
+  scripts/reference_outputs.sh "$build" "$tmp/reference" >"$tmp/reference.sha256"
+  if [ $check -eq 1 ]; then
+    if diff -u docs/checks/reference_outputs.sha256 "$tmp/reference.sha256" >&2; then
+      echo "  docs/checks/reference_outputs.sha256: identical"
+    else
+      echo "  docs/checks/reference_outputs.sha256: DIFFERS (lines above)" >&2
+      fail=1
+    fi
+  else
+    cp "$tmp/reference.sha256" docs/checks/reference_outputs.sha256
+    echo "  wrote docs/checks/reference_outputs.sha256 ($(wc -l <"$tmp/reference.sha256") files)"
+  fi
+}
+
+# series_row H DT: one CPU-twin run of the column; its row (columns of the shipped CSV) in $tmp/row_H.
+series_row() {
+  local h=$1 dt=$2 mm t0 t1
+  mm=$(awk -v h="$h" 'BEGIN {printf "%g", h * 1000}')
+  t0=$(date +%s.%N)
+  "$G" mpm mpm/scenes/column_collapse.toml --backend cpu --set "grid.h=$h" --set "time.dt=$dt" \
+    --set output.series_dt=5e-3 --out "$tmp/col_$mm" --no-png --quiet >"$tmp/col_$mm.txt"
+  t1=$(date +%s.%N)
+  awk -F, -v mm="$mm" -v wall="$(awk -v a="$t0" -v b="$t1" 'BEGIN {printf "%.1f", b - a}')" -v c="$commit" \
+    -v txt="$tmp/col_$mm.txt" 'BEGIN {
+      while ((getline l < txt) > 0) {
+        if (l ~ /^final run-out:/) { split(l, w, " "); r = w[3] }
+        if (l ~ /^final height:/) { split(l, w, " "); ht = w[3] }
+        if (l ~ /^points:/) { split(l, w, " "); n = w[2] } }
+      print mm "," n "," r "," ht "," c "," wall }' >"$tmp/row_$mm"
+}
+
+# The CPU rows replace theirs in the shipped CSV; errors against the 1 mm row are recomputed.
+ref_series() {
+  local csv=docs/figures/mpm_column_mesh_series.csv
+  [ "$1" = all ] && series_row 0.01 1e-4 && series_row 0.005 5e-5
+  [ "$1" = 2.5 ] && series_row 0.0025 2.5e-5
+  cat "$tmp"/row_* >"$tmp/rows"
+  awk -F, -v OFS=, -v rows="$tmp/rows" 'BEGIN { while ((getline l < rows) > 0) { split(l, w, ","); new[w[1]] = l } }
+    /^#/ { print; next }
+    !hdr { hdr = 1; for (i = 1; i <= NF; ++i) col[$i] = i; print; next }
+    { line[++n] = $0 }
+    END {
+      for (k = 1; k <= n; ++k) { split(line[k], f, ","); if (f[1] == 1) { r1 = f[col["runout_m"]]; h1 = f[col["height_m"]] } }
+      for (k = 1; k <= n; ++k) {
+        m = split(line[k], f, ",")
+        if (f[1] in new) {
+          split(new[f[1]], w, ",")
+          f[col["points"]] = w[2]; f[col["runout_m"]] = w[3]; f[col["height_m"]] = w[4]
+          f[col["backend"]] = "cpu"; f[col["measured_at"]] = w[5]; f[col["wall_s"]] = w[6]
+          f[col["device"]] = "2-core x86-64 (shared)"
+        }
+        if (f[1] != 1) {
+          f[col["runout_error_vs_1mm"]] = sprintf("%.4f", f[col["runout_m"]] / r1 - 1)
+          f[col["height_error_vs_1mm"]] = sprintf("%.4f", f[col["height_m"]] / h1 - 1)
+        }
+        out = f[1]; for (i = 2; i <= m; ++i) out = out "," f[i]; print out
+      } }' "$csv" >"$tmp/series.csv"
+  if [ $check -eq 1 ]; then
+    local bad=0
+    while IFS=, read -r mm _ r ht _; do
+      awk -F, -v mm="$mm" -v r="$r" -v ht="$ht" 'BEGIN { bad = 1 }
+        !/^#/ && $1 == mm { bad = ($3 - r > 1e-4 || r - $3 > 1e-4 || $4 - ht > 1e-4 || ht - $4 > 1e-4)
+                             if (bad) printf "  %s: %s mm shipped run-out %s height %s, fresh %s %s\n", FILENAME, mm, $3, $4, r, ht > "/dev/stderr" }
+        END { exit bad }' "$csv" || bad=1
+    done <"$tmp/rows"
+    if [ $bad -eq 0 ]; then echo "  $csv: CPU rows match (1e-4 m)"; else
+      echo "  $csv: DIFFERS from the current code: regenerate it in the same commit" >&2
+      fail=1
+    fi
+  else
+    cp "$tmp/series.csv" "$csv"
+    echo "  wrote the CPU rows of $csv"
+    if "$PY" -c 'import matplotlib' 2>/dev/null; then "$PY" scripts/plot_mesh_series.py >/dev/null; fi
+  fi
+}
+
+for n in "${names[@]}"; do
+  t0=$SECONDS
+  echo "$n:"
+  case $n in
+    figures) ref_figures ;;
+    kfs) ref_kfs ;;
+    kfs-undrained) ref_kfs_undrained ;;
+    hashes) ref_hashes ;;
+    series) ref_series all ;;
+    series-2.5mm) ref_series 2.5 ;;
+    *) echo "unknown reference '$n' (figures kfs kfs-undrained hashes series series-2.5mm)" >&2; exit 2 ;;
+  esac
+  echo "  ($((SECONDS - t0)) s)"
+done
+[ $fail -eq 0 ] || { echo "some shipped references differ from the current code" >&2; exit 1; }
