@@ -9,6 +9,8 @@
 #                          dem_comparison, dem_errors (CSV + PNG)
 #   kfs            ~25 s   granflow calibrate data/calibration/kfs_fit.toml: data/params/kfs_fitted.toml,
 #                          docs/figures/kfs_tests.csv, kfs_identifiability.csv, kfs_*.png
+#   kfs-shipped    ~3 s    --check only: the shipped set evaluated by kfs_fit.toml (--evaluate) gives the
+#                          shipped fit's misfit (1e-5: the printed digits) and docs/figures/kfs_tests.csv
 #   kfs-undrained  ~25 s   granflow calibrate data/calibration/kfs_undrained_e0.toml (the shipped set
 #                          fixed): docs/figures/kfs_undrained_e0_tests.csv, kfs_undrained_*.png
 #   hashes         ~3 min  scripts/reference_outputs.sh: docs/checks/reference_outputs.sha256
@@ -25,10 +27,13 @@
 #   kfs, kfs-undrained: the fitted values and the per-test errors to 1e-6 relative: the fit is
 #     bitwise the same for any thread count (docs/calibration.md), so only printing rounds; on
 #     another compiler BOBYQA's path may fork after ~1000 evaluations (then regenerate there).
+#   kfs-shipped: misfit 1e-5 relative (6 digits in the set's source line); per-test table 1e-5 of
+#     each column's largest value (the per-test e0, read back with 12 digits, move CVODE's steps:
+#     the undrained rows by ~1e-6).
 #   hashes: identical (the refactor check of docs/reliability_ci.md; machine-specific).
 #   series: run-out and height to 1e-4 m (the CPU twin is deterministic; 1e-4 m is the printed
 #     precision of the table).
-# ctest -R References runs `--check figures kfs` (tests/references/CMakeLists.txt).
+# ctest -R References runs `--check figures` and `--check kfs-shipped` (tests/references/).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 check=0
@@ -94,6 +99,34 @@ ref_kfs() {
   for f in q_eps1 q_p epsv_eps1 e_logp; do png "$tmp/kfs/tests_$f.png" "docs/figures/kfs_$f.png"; done
 }
 
+# The shipped set evaluated by kfs_fit.toml (--evaluate: no fit, a few seconds): its misfit must be
+# the shipped fit's and its per-test table the shipped one, so a change of the law, the driver or
+# the misfit that would move the fit shows without running it. The per-test e0 come from the
+# shipped kfs_identifiability.csv (12 digits).
+ref_kfs_shipped() {
+  local job=$tmp/kfs_shipped.toml
+  awk -v root="$PWD" -v ids=docs/figures/kfs_identifiability.csv '
+    BEGIN { FS = ","; while ((getline l < ids) > 0) { split(l, w, ","); if (w[1] ~ /^test.e0@/) e0[substr(w[1], 9)] = w[2] }; FS = " " }
+    /^params = / { print "params = \"" root "/data/params/kfs_fitted.toml\""; next }
+    /^data = "\.\.\// { sub(/"\.\.\//, "\"" root "/data/"); print; next }
+    /^experiment = / && prev ~ /test.e0/ { print; n = $3; gsub(/"/, "", n); print "start = " e0[n]; prev = ""; next }
+    { print; prev = $0 }' data/calibration/kfs_fit.toml >"$job"
+  "$G" calibrate "$job" --evaluate --out "$tmp/kfse" --quiet --no-plot 2>"$tmp/kfse.err" ||
+    { cat "$tmp/kfse.err" >&2; return 1; }
+  local shipped fresh
+  shipped=$(sed -n 's/^source = .*-> \([0-9.e+-]*\)).*/\1/p' data/params/kfs_fitted.toml)
+  fresh=$(sed -n 's/^misfit: start \([0-9.e+-]*\) .*/\1/p' "$tmp/kfse/report.txt")
+  if [ $check -eq 0 ]; then echo "  (nothing to write: the check of the shipped set only)"; return 0; fi
+  if awk -v a="$shipped" -v b="$fresh" 'BEGIN { d = a - b; exit !(a > 0 && (d < 0 ? -d : d) <= 1e-5 * a) }'; then
+    echo "  data/params/kfs_fitted.toml: re-evaluates to misfit $fresh (shipped $shipped, rtol 1e-5)"
+  else
+    echo "  data/params/kfs_fitted.toml: re-evaluates to misfit $fresh, shipped $shipped: regenerate (kfs) in the same commit" >&2
+    fail=1
+  fi
+  # 1e-5: the e0 read back with 12 digits move CVODE's steps, and so the undrained rows, by ~1e-6
+  take docs/figures/kfs_tests.csv "$tmp/kfse/tests.csv" csv 1e-5
+}
+
 ref_kfs_undrained() {
   "$G" calibrate data/calibration/kfs_undrained_e0.toml --out "$tmp/kfsu" --quiet \
     $([ $check -eq 1 ] && echo --no-plot) 2>"$tmp/kfsu.err" || { cat "$tmp/kfsu.err" >&2; return 1; }
@@ -121,7 +154,9 @@ series_row() {
   local h=$1 dt=$2 mm t0 t1
   mm=$(awk -v h="$h" 'BEGIN {printf "%g", h * 1000}')
   t0=$(date +%s.%N)
-  "$G" mpm mpm/scenes/column_collapse.toml --backend cpu --set "grid.h=$h" --set "time.dt=$dt" \
+  # one thread unless told: on a shared machine OpenMP barriers stall (docs/mpm.md); the result
+  # does not depend on the thread count
+  OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} "$G" mpm mpm/scenes/column_collapse.toml --backend cpu --set "grid.h=$h" --set "time.dt=$dt" \
     --set output.series_dt=5e-3 --out "$tmp/col_$mm" --no-png --quiet >"$tmp/col_$mm.txt"
   t1=$(date +%s.%N)
   awk -F, -v mm="$mm" -v wall="$(awk -v a="$t0" -v b="$t1" 'BEGIN {printf "%.1f", b - a}')" -v c="$commit" \
@@ -129,7 +164,7 @@ series_row() {
       while ((getline l < txt) > 0) {
         if (l ~ /^final run-out:/) { split(l, w, " "); r = w[3] }
         if (l ~ /^final height:/) { split(l, w, " "); ht = w[3] }
-        if (l ~ /^points:/) { split(l, w, " "); n = w[2] } }
+        if (l ~ /^particles:/) { split(l, w, " "); n = w[2] } }
       print mm "," n "," r "," ht "," c "," wall }' >"$tmp/row_$mm"
 }
 
@@ -149,7 +184,8 @@ ref_series() {
         m = split(line[k], f, ",")
         if (f[1] in new) {
           split(new[f[1]], w, ",")
-          f[col["points"]] = w[2]; f[col["runout_m"]] = w[3]; f[col["height_m"]] = w[4]
+          if (w[2] != "") f[col["points"]] = w[2]
+          f[col["runout_m"]] = w[3]; f[col["height_m"]] = w[4]
           f[col["backend"]] = "cpu"; f[col["measured_at"]] = w[5]; f[col["wall_s"]] = w[6]
           f[col["device"]] = "2-core x86-64 (shared)"
         }
@@ -184,11 +220,12 @@ for n in "${names[@]}"; do
   case $n in
     figures) ref_figures ;;
     kfs) ref_kfs ;;
+    kfs-shipped) ref_kfs_shipped ;;
     kfs-undrained) ref_kfs_undrained ;;
     hashes) ref_hashes ;;
     series) ref_series all ;;
     series-2.5mm) ref_series 2.5 ;;
-    *) echo "unknown reference '$n' (figures kfs kfs-undrained hashes series series-2.5mm)" >&2; exit 2 ;;
+    *) echo "unknown reference '$n' (figures kfs kfs-shipped kfs-undrained hashes series series-2.5mm)" >&2; exit 2 ;;
   esac
   echo "  ($((SECONDS - t0)) s)"
 done
