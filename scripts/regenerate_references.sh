@@ -187,7 +187,7 @@ ref_series() {
           if (w[2] != "") f[col["points"]] = w[2]
           f[col["runout_m"]] = w[3]; f[col["height_m"]] = w[4]
           f[col["backend"]] = "cpu"; f[col["measured_at"]] = w[5]; f[col["wall_s"]] = w[6]
-          f[col["device"]] = "2-core x86-64 (shared)"
+          f[col["device"]] = "2-core x86-64 (shared; 1 thread)"
         }
         if (f[1] != 1) {
           f[col["runout_error_vs_1mm"]] = sprintf("%.4f", f[col["runout_m"]] / r1 - 1)
@@ -210,7 +210,10 @@ ref_series() {
   else
     cp "$tmp/series.csv" "$csv"
     echo "  wrote the CPU rows of $csv"
-    if "$PY" -c 'import matplotlib' 2>/dev/null; then "$PY" scripts/plot_mesh_series.py >/dev/null; fi
+    local p
+    for p in "$PY" /usr/bin/python3; do  # a pyenv shim may lack matplotlib
+      if "$p" -c 'import matplotlib' 2>/dev/null; then "$p" scripts/plot_mesh_series.py >/dev/null; break; fi
+    done
   fi
 }
 
