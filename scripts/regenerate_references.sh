@@ -4,21 +4,23 @@
 #
 #   scripts/regenerate_references.sh [--check] [--build DIR] [NAME...]
 #
-# NAME (default: all but series-2.5mm), with its time on the project's 2-core machine (shared):
-#   figures        ~2 s    granflow figures: docs/figures/fig4-7, fig6_sweep, fig7_fixed_strain,
+# NAME (default: all but series-2.5mm), with its time measured on the project's 2-core machine,
+# shared with other builds (load 5-9), 2026-12-02:
+#   figures        3 s     granflow figures (6 s with the PNGs): docs/figures/fig4-7, fig6_sweep, fig7_fixed_strain,
 #                          dem_comparison, dem_errors (CSV + PNG)
-#   kfs            ~25 s   granflow calibrate data/calibration/kfs_fit.toml: data/params/kfs_fitted.toml,
+#   kfs            47 s    granflow calibrate data/calibration/kfs_fit.toml: data/params/kfs_fitted.toml,
 #                          docs/figures/kfs_tests.csv, kfs_identifiability.csv, kfs_*.png
-#   kfs-shipped    ~3 s    --check only: the shipped set evaluated by kfs_fit.toml (--evaluate) gives the
+#   kfs-shipped    6 s     --check only: the shipped set evaluated by kfs_fit.toml (--evaluate) gives the
 #                          shipped fit's misfit (1e-5: the printed digits) and docs/figures/kfs_tests.csv
-#   kfs-undrained  ~25 s   granflow calibrate data/calibration/kfs_undrained_e0.toml (the shipped set
+#   kfs-undrained  52 s    granflow calibrate data/calibration/kfs_undrained_e0.toml (the shipped set
 #                          fixed): docs/figures/kfs_undrained_e0_tests.csv, kfs_undrained_*.png
 #   hashes         ~3 min  scripts/reference_outputs.sh: docs/checks/reference_outputs.sha256
-#   series         ~4 min  the column mesh series on the CPU twin at 10 and 5 mm (fp64, dt with h):
+#   series         3 min   the column mesh series on the CPU twin at 10 and 5 mm (30 + 150 s; fp64,
+#                          dt with h, one OpenMP thread unless OMP_NUM_THREADS says otherwise):
 #                          their rows of docs/figures/mpm_column_mesh_series.csv (+ PNG)
 #   series-2.5mm   ~25 min the 2.5 mm row the same way (not in the default set)
 # The 1 mm row of the series and every table of docs/benchmarks.md are GPU-made: they name the
-# commit they were measured at and are not rebuilt here (docs/benchmarks.md, "Code").
+# commit they were measured at and are not rebuilt here (docs/benchmarks.md, "Measured at").
 #
 # Tolerances of --check (scripts/compare_references.py), and why:
 #   figures: 1e-5 x each column's largest |value|. CVODE runs at rtol 1e-6; another compiler or
