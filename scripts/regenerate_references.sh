@@ -8,6 +8,8 @@
 # shared with other builds (load 5-9), 2026-12-02:
 #   figures        3 s     granflow figures (6 s with the PNGs): docs/figures/fig4-7, fig6_sweep, fig7_fixed_strain,
 #                          dem_comparison, dem_errors (CSV + PNG)
+#   dem-joint      0.3 s   granflow calibrate data/calibration/dem_collisional_joint.toml: V_sd, V_m,
+#                          V_sd_inf, mu_star of data/params/column_collapse_flow.toml
 #   kfs            47 s    granflow calibrate data/calibration/kfs_fit.toml: data/params/kfs_fitted.toml,
 #                          docs/figures/kfs_tests.csv, kfs_identifiability.csv, kfs_*.png
 #   kfs-shipped    6 s     --check only: the shipped set evaluated by kfs_fit.toml (--evaluate) gives the
@@ -32,10 +34,11 @@
 #   kfs-shipped: misfit 1e-5 relative (6 digits in the set's source line); per-test table 1e-5 of
 #     each column's largest value (the per-test e0, read back with 12 digits, move CVODE's steps:
 #     the undrained rows by ~1e-6).
+#   dem-joint: 1e-9 relative (the same binary gives the same fit; 17 digits in the file).
 #   hashes: identical (the refactor check of docs/reliability_ci.md; machine-specific).
 #   series: run-out and height to 1e-4 m (the CPU twin is deterministic; 1e-4 m is the printed
 #     precision of the table).
-# ctest -R References runs `--check figures` and `--check kfs-shipped` (tests/references/).
+# ctest -R References runs `--check` of figures, dem-joint and kfs-shipped (tests/references/).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 check=0
@@ -50,7 +53,7 @@ while [ $# -gt 0 ]; do
   esac
   shift
 done
-[ ${#names[@]} -gt 0 ] || names=(figures kfs kfs-undrained hashes series)
+[ ${#names[@]} -gt 0 ] || names=(figures dem-joint kfs kfs-undrained hashes series)
 G=${GRANFLOW:-$build/granflow}
 [ -x "$G" ] || { echo "no $G: build granflow first (or set GRANFLOW)" >&2; exit 2; }
 PY=${PYTHON:-python3}
@@ -127,6 +130,33 @@ ref_kfs_shipped() {
   fi
   # 1e-5: the e0 read back with 12 digits move CVODE's steps, and so the undrained rows, by ~1e-6
   take docs/figures/kfs_tests.csv "$tmp/kfse/tests.csv" csv 1e-5
+}
+
+# The collisional constants of data/params/column_collapse_flow.toml are the fit of
+# dem_collisional_joint.toml (ten DEM groups, milliseconds); the rest of that file is by hand.
+ref_dem_joint() {
+  local set=data/params/column_collapse_flow.toml keys='^(V_sd|V_m|V_sd_inf|mu_star) = '
+  "$G" calibrate data/calibration/dem_collisional_joint.toml --out "$tmp/dj" --quiet --no-plot \
+    --no-cross-validation 2>"$tmp/dj.err" || { cat "$tmp/dj.err" >&2; return 1; }
+  grep -E "$keys" "$tmp/dj/dem_joint.toml" >"$tmp/dj.fresh"
+  sed -E 's/[[:space:]]*#.*//' "$set" | grep -E "$keys" >"$tmp/dj.shipped"
+  if [ $check -eq 1 ]; then
+    take_text_lines "$set" "$tmp/dj.shipped" "$tmp/dj.fresh"
+  else
+    awk 'NR == FNR { split($0, w, " = "); v[w[1]] = w[2]; next }
+         { for (k in v) if (index($0, k " = ") == 1) { c = index($0, "#"); $0 = k " = " v[k] (c ? "      " substr($0, c) : "") } print }' \
+      "$tmp/dj.fresh" "$set" >"$tmp/dj.toml"
+    cp "$tmp/dj.toml" "$set"
+    echo "  wrote V_sd, V_m, V_sd_inf, mu_star of $set"
+  fi
+}
+# take_text_lines NAME SHIPPED FRESH: the check of a few key = value lines (1e-9 relative: the
+# same binary gives the same fit; the file holds them with 17 digits).
+take_text_lines() {
+  if "$PY" scripts/compare_references.py text "$2" "$3" 1e-9; then echo "  $1: matches (rtol 1e-9)"; else
+    echo "  $1: DIFFERS from the current code: regenerate it in the same commit" >&2
+    fail=1
+  fi
 }
 
 ref_kfs_undrained() {
@@ -226,11 +256,12 @@ for n in "${names[@]}"; do
     figures) ref_figures ;;
     kfs) ref_kfs ;;
     kfs-shipped) ref_kfs_shipped ;;
+    dem-joint) ref_dem_joint ;;
     kfs-undrained) ref_kfs_undrained ;;
     hashes) ref_hashes ;;
     series) ref_series all ;;
     series-2.5mm) ref_series 2.5 ;;
-    *) echo "unknown reference '$n' (figures kfs kfs-shipped kfs-undrained hashes series series-2.5mm)" >&2; exit 2 ;;
+    *) echo "unknown reference '$n' (figures dem-joint kfs kfs-shipped kfs-undrained hashes series series-2.5mm)" >&2; exit 2 ;;
   esac
   echo "  ($((SECONDS - t0)) s)"
 done
