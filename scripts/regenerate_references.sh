@@ -20,7 +20,7 @@
 #   series         3 min   the column mesh series on the CPU twin at 10 and 5 mm (30 + 150 s; fp64,
 #                          dt with h, one OpenMP thread unless OMP_NUM_THREADS says otherwise):
 #                          their rows of docs/figures/mpm_column_mesh_series.csv (+ PNG)
-#   series-2.5mm   ~25 min the 2.5 mm row the same way (not in the default set)
+#   series-2.5mm   16 min  the 2.5 mm row the same way (975 s; not in the default set)
 # The 1 mm row of the series and every table of docs/benchmarks.md are GPU-made: they name the
 # commit they were measured at and are not rebuilt here (docs/benchmarks.md, "Measured at").
 #
