@@ -258,4 +258,37 @@ TEST(CalibrationIdentifiability, ParameterWithoutEffectIsFlagged) {
   EXPECT_NE(csv.find("collisional.e_sd,0.6,0.3,0.9,0,"), std::string::npos) << csv;
 }
 
+// The same data and spread, two bounds for eps_n: its standard error in its own units does not
+// depend on the range searched (sd_range x range agree), so over [0.3, 0.99] it is identified and
+// over [0.799, 0.801] the same spread (~5e-4) is over 10 % of the range: "poorly identified".
+TEST(CalibrationIdentifiability, NarrowBoundsMakeTheSameSpreadPoorlyIdentified) {
+  Scratch dir;
+  CollisionalParams<double> truth;
+  truth.rho_p = 1;
+  truth.d = 1;
+  truth.V_sd = 1.0 / 1.6;
+  truth.V_m = 0.35;
+  truth.eps_n = 0.8;
+  truth.mu_p = 0.0;
+  dir.write("flow.csv", synthetic_flow_curves(truth, 0.02, 5));
+  dir.write("start.toml", "[collisional]\nrho_p = 1\nd = 1\ne_sd = 0.6\nV_m = 0.35\neps_n = 0.8\nmu_p = 0\n");
+  double sd_abs[2];
+  for (int k = 0; k < 2; ++k) {
+    std::string t = synthetic_job();
+    if (k == 1) t.replace(t.find("lower = 0.3\nupper = 0.99"), 24, "lower = 0.799\nupper = 0.801");
+    const CalibrationJob job = load_job(dir.write("job" + std::to_string(k) + ".toml", t));
+    Objective obj(job, 1);
+    FitOptions fo;
+    fo.progress = false;
+    fo.evaluate_only = true;
+    const FitResult r = fit(obj, fo);
+    const std::size_t j = index_of(job, "collisional.eps_n");
+    const FreeParameter& p = job.free[j];
+    sd_abs[k] = r.identifiability.sd_range[j] * (p.upper - p.lower);
+    EXPECT_EQ(r.identifiability.status[j], k == 0 ? "identified" : "poorly identified")
+        << "sd_range " << r.identifiability.sd_range[j] << "\n" << format_identifiability(obj, r);
+  }
+  EXPECT_NEAR(sd_abs[1] / sd_abs[0], 1.0, 0.02);
+}
+
 }  // namespace granflow::calibration::test
