@@ -5,19 +5,20 @@
 #   scripts/regenerate_references.sh [--check] [--build DIR] [NAME...]
 #
 # NAME (default: all but series-2.5mm), with its time measured on the project's 2-core machine,
-# shared with other builds (load 5-9), 2026-12-02:
-#   figures        3 s     granflow figures (6 s with the PNGs): docs/figures/fig4-7, fig6_sweep, fig7_fixed_strain,
+# shared with other builds (the longer time: under a load of 5-9), 2026-12-02; the default set
+# took 6.3 min with --check:
+#   figures        2-3 s   granflow figures (6 s with the PNGs): docs/figures/fig4-7, fig6_sweep, fig7_fixed_strain,
 #                          dem_comparison, dem_errors (CSV + PNG)
-#   dem-joint      0.3 s   granflow calibrate data/calibration/dem_collisional_joint.toml: V_sd, V_m,
+#   dem-joint      0.3-1 s granflow calibrate data/calibration/dem_collisional_joint.toml: V_sd, V_m,
 #                          V_sd_inf, mu_star of data/params/column_collapse_flow.toml
-#   kfs            47 s    granflow calibrate data/calibration/kfs_fit.toml: data/params/kfs_fitted.toml,
+#   kfs            20-47 s granflow calibrate data/calibration/kfs_fit.toml: data/params/kfs_fitted.toml,
 #                          docs/figures/kfs_tests.csv, kfs_identifiability.csv, kfs_*.png
-#   kfs-shipped    6 s     --check only: the shipped set evaluated by kfs_fit.toml (--evaluate) gives the
+#   kfs-shipped    3-6 s   --check only: the shipped set evaluated by kfs_fit.toml (--evaluate) gives the
 #                          shipped fit's misfit (1e-5: the printed digits) and docs/figures/kfs_tests.csv
-#   kfs-undrained  52 s    granflow calibrate data/calibration/kfs_undrained_e0.toml (the shipped set
+#   kfs-undrained  30-52 s granflow calibrate data/calibration/kfs_undrained_e0.toml (the shipped set
 #                          fixed): docs/figures/kfs_undrained_e0_tests.csv, kfs_undrained_*.png
-#   hashes         ~3 min  scripts/reference_outputs.sh: docs/checks/reference_outputs.sha256
-#   series         3 min   the column mesh series on the CPU twin at 10 and 5 mm (30 + 150 s; fp64,
+#   hashes         2.4-3.8 min  scripts/reference_outputs.sh: docs/checks/reference_outputs.sha256
+#   series         1.5-3 min  the column mesh series on the CPU twin at 10 and 5 mm (fp64,
 #                          dt with h, one OpenMP thread unless OMP_NUM_THREADS says otherwise):
 #                          their rows of docs/figures/mpm_column_mesh_series.csv (+ PNG)
 #   series-2.5mm   16 min  the 2.5 mm row the same way (975 s; not in the default set)
