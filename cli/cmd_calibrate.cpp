@@ -88,6 +88,8 @@ void run_calibrate(const CalibrateOptions& o) {
     if (!o.quiet) std::cout << "\n" << format_flow_curve_report(fr);
     write_flow_curve_report(fr, folder.staging(), !o.no_plot);
   }
+  // the per-parameter verdict last, where the reader looks (also at the end of report.txt's fit part)
+  if (!o.quiet && (per_test || job.cross_validation.present)) std::cout << "\n" << format_identifiability(obj, r);
   write_outputs(obj, r, folder, !o.no_plot);
   if (!fo.state_file.empty()) {  // the results are in place: nothing to resume
     std::error_code ec;

@@ -47,12 +47,14 @@ void plot(const std::string& script, const std::string& dir) {
 void register_figures(CLI::App& app) {
   auto out = std::make_shared<std::string>("docs/figures");
   auto* cmd = app.add_subcommand("figures", "Regenerate Figs. 4-7 and the DEM comparison (CSV + PNG)");
+  auto no_png = std::make_shared<bool>(false);
   cmd->add_option("--out", *out, "Output folder")->capture_default_str();
-  cmd->callback([out] {
+  cmd->add_flag("--no-png", *no_png, "CSVs only, no plots");
+  cmd->callback([out, no_png] {
     std::cout << "granflow figures -> " << *out << "\n";
     const auto files = elementtest::paper::write_figures(*out, std::cout);
     for (const auto& f : files) std::cout << "  wrote " << f << "\n";
-    plot(plot_script(), *out);
+    if (!*no_png) plot(plot_script(), *out);
   });
 }
 

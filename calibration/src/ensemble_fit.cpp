@@ -287,6 +287,9 @@ FitResult fit_ensemble(const Objective& obj, const FitOptions& options) {
     id.correlation = Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n), kNaN);
     id.rel_sd.assign(n, kNaN);
     id.undefined.assign(n, "not computed: the job has batched (MPM scene) experiments; see the ensemble's posterior");
+    id.sd_range.assign(n, kNaN);
+    id.condition = kNaN;
+    id.status.assign(n, "not computed");
   } else {
     res.identifiability = identifiability(obj, res.theta, job.algorithm.fd_step);
   }

@@ -238,6 +238,7 @@ Identifiability identifiability(const Objective& obj, const std::vector<double>&
   Identifiability id;
   const std::vector<double> u = obj.to_unit(theta);
   Eigen::MatrixXd S(N, n);  // d residual / d ln(theta)
+  Eigen::MatrixXd Ju(N, n);  // d residual / d u (the unit cube of the search)
   for (std::size_t j = 0; j < n; ++j) {
     const FreeParameter& p = job.free[j];
     std::vector<double> up = u, um = u;
@@ -246,7 +247,10 @@ Identifiability identifiability(const Objective& obj, const std::vector<double>&
     const Evaluation ep = obj.evaluate(obj.from_unit(up)), em = obj.evaluate(obj.from_unit(um));
     id.evaluations += 2;
     const double du_dlnt = p.log ? 1.0 / std::log(p.upper / p.lower) : theta[j] / (p.upper - p.lower);
-    for (std::size_t i = 0; i < N; ++i) S(i, j) = (ep.residuals[i] - em.residuals[i]) / (up[j] - um[j]) * du_dlnt;
+    for (std::size_t i = 0; i < N; ++i) {
+      Ju(i, j) = (ep.residuals[i] - em.residuals[i]) / (up[j] - um[j]);
+      S(i, j) = Ju(i, j) * du_dlnt;
+    }
   }
   id.sensitivity = Eigen::MatrixXd::Zero(nc, n);
   std::size_t row = 0;
@@ -298,7 +302,46 @@ Identifiability identifiability(const Objective& obj, const std::vector<double>&
   for (std::size_t j = 0; j < n; ++j)
     for (std::size_t k = j + 1; k < n; ++k)
       if (std::isfinite(id.correlation(j, k)) && std::fabs(id.correlation(j, k)) > 0.95) id.correlated.emplace_back(j, k);
+  const UnitSpread spread = gauss_newton_spread(Ju, e0.misfit);
+  id.sd_range = spread.sd;
+  id.condition = spread.condition;
+  for (std::size_t j = 0; j < n; ++j) {
+    bool paired = false;
+    for (const auto& [a, b] : id.correlated) paired = paired || a == j || b == j;
+    const double sd = id.sd_range[j];
+    id.status.push_back(!id.undefined[j].empty() || !std::isfinite(sd) ? "not identified"
+                        : sd > kPoorlyIdentified                       ? "poorly identified"
+                        : paired                                       ? "correlated"
+                                                                       : "identified");
+  }
   return id;
+}
+
+UnitSpread gauss_newton_spread(const Eigen::MatrixXd& J, double misfit) {
+  const Eigen::Index N = J.rows(), n = J.cols();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  UnitSpread out;
+  out.sd.assign(static_cast<std::size_t>(n), nan);
+  if (n == 0) return out;
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(J.transpose() * J);
+  const Eigen::VectorXd l = es.eigenvalues();  // ascending
+  const double lmax = l.cwiseAbs().maxCoeff();
+  out.condition = l(0) > 1e-12 * lmax && l(0) > 0 ? lmax / l(0) : std::numeric_limits<double>::infinity();
+  if (N <= n || !(lmax > 0)) return out;
+  const double s2 = misfit / static_cast<double>(N - n);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    double var = 0;
+    bool defined = true;
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const double v = es.eigenvectors()(j, k);
+      if (l(k) > 1e-12 * lmax && l(k) > 0)
+        var += v * v / l(k);
+      else if (std::fabs(v) > 1e-6)
+        defined = false;  // a direction the residuals do not see moves this parameter
+    }
+    if (defined) out.sd[static_cast<std::size_t>(j)] = std::sqrt(s2 * var);
+  }
+  return out;
 }
 
 }  // namespace granflow::calibration

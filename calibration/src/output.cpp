@@ -169,7 +169,54 @@ std::string format_report(const Objective& obj, const FitResult& r) {
       os << "WARNING: |correlation(" << job.free[j].key << ", " << job.free[k].key << ")| = "
          << num(std::fabs(id.correlation(j, k)), 4) << " > 0.95: these data do not separate them\n";
   }
+  os << "\n" << format_identifiability(obj, r);
   if (r.ensemble) os << "\n" << format_ensemble_report(obj, r);
+  return os.str();
+}
+
+namespace {
+
+// The value at unit coordinate u of parameter p (u may lie outside [0, 1]).
+double at_unit(const FreeParameter& p, double u) {
+  return p.log ? p.lower * std::exp(u * std::log(p.upper / p.lower)) : p.lower + u * (p.upper - p.lower);
+}
+double unit_of(const FreeParameter& p, double v) {
+  return p.log ? std::log(v / p.lower) / std::log(p.upper / p.lower) : (v - p.lower) / (p.upper - p.lower);
+}
+
+// The other parameter of j's strongest flagged pair, with the correlation; "" when none.
+std::string partner(const CalibrationJob& job, const Identifiability& id, std::size_t j) {
+  std::string out;
+  double best = 0;
+  for (const auto& [a, b] : id.correlated) {
+    if (a != j && b != j) continue;
+    const std::size_t k = a == j ? b : a;
+    if (std::fabs(id.correlation(j, k)) <= best) continue;
+    best = std::fabs(id.correlation(j, k));
+    out = job.free[k].key + " " + num(id.correlation(j, k), 3);
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string format_identifiability(const Objective& obj, const FitResult& r) {
+  const CalibrationJob& job = obj.job();
+  const Identifiability& id = r.identifiability;
+  std::ostringstream os;
+  os << "identifiability at the optimum (Gauss-Newton J^T J in the search's unit cube): cond(J^T J) = "
+     << shown(id.condition, 3) << "\n";
+  os << std::left << std::setw(24) << "parameter" << std::right << std::setw(13) << "fitted" << std::setw(10)
+     << "sd/range" << std::setw(10) << "rel.sd" << "  status\n";
+  for (std::size_t j = 0; j < job.free.size(); ++j) {
+    const std::string with = partner(job, id, j);
+    os << std::left << std::setw(24) << job.free[j].key << std::right << std::setw(13) << num(r.theta[j])
+       << std::setw(10) << shown(id.sd_range[j], 3) << std::setw(10) << shown(id.rel_sd[j], 3) << "  " << id.status[j]
+       << (with.empty() ? "" : " (with " + with + ")") << "\n";
+  }
+  os << "(sd/range: standard error over the range searched, in log for log = true; poorly identified above "
+     << kPoorlyIdentified << "; correlated: |correlation| > 0.95 with another; linearised, so a curved valley "
+        "is wider than this says)\n";
   return os.str();
 }
 
@@ -332,6 +379,20 @@ void write_staged(const Objective& obj, const FitResult& r, io::StagedFolder& fo
        << Cell{r.identifiability.rel_sd[j]} << "\n";
   }
   write_file(tmp / "report_parameters.csv", pc.str());
+
+  std::ostringstream ic;  // identifiability.csv (docs/calibration.md)
+  ic << std::setprecision(12)
+     << "key,fitted,lower,upper,log,sd_range,rel_sd,lower_2sd,upper_2sd,correlated_with,condition,status\n";
+  const Identifiability& id = r.identifiability;
+  for (std::size_t j = 0; j < job.free.size(); ++j) {
+    const FreeParameter& p = job.free[j];
+    const double u = unit_of(p, r.theta[j]), sd = id.sd_range[j];
+    ic << p.key << "," << Cell{r.theta[j]} << "," << Cell{p.lower} << "," << Cell{p.upper} << "," << (p.log ? 1 : 0)
+       << "," << Cell{sd} << "," << Cell{id.rel_sd[j]} << "," << Cell{std::isfinite(sd) ? at_unit(p, u - 2 * sd) : sd}
+       << "," << Cell{std::isfinite(sd) ? at_unit(p, u + 2 * sd) : sd} << "," << csv_quote(partner(job, id, j)) << ","
+       << Cell{id.condition} << "," << id.status[j] << "\n";
+  }
+  write_file(tmp / "identifiability.csv", ic.str());
 
   std::ostringstream cc, sc, xc;
   cc << std::setprecision(10)

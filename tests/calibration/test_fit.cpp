@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <iostream>
 #include <random>
 #include <sstream>
@@ -179,6 +180,115 @@ TEST(CalibrationFit, RestitutionAndFrictionAreFlaggedAsCorrelated) {
   bool flagged = id.singular;
   for (const auto& [a, b] : id.correlated) flagged = flagged || ((a == je && b == jm) || (a == jm && b == je));
   EXPECT_TRUE(flagged);
+}
+
+// A linear least-squares problem r = J u - b has the closed-form spread sqrt(s2 (J^T J)^-1_jj),
+// s2 = misfit / (N - n). Columns on disjoint rows make J^T J diagonal: sd_j = sqrt(s2 / sum_i J_ij^2).
+TEST(CalibrationIdentifiability, GaussNewtonSpreadMatchesTheClosedForm) {
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(8, 2);
+  J.block(0, 0, 4, 1).setConstant(2.0);  // sum of squares 16
+  J.block(4, 1, 4, 1).setConstant(0.5);  // sum of squares 1
+  const double misfit = 0.6, s2 = misfit / 6.0;
+  UnitSpread u = gauss_newton_spread(J, misfit);
+  EXPECT_NEAR(u.sd[0], std::sqrt(s2 / 16.0), 1e-12);
+  EXPECT_NEAR(u.sd[1], std::sqrt(s2 / 1.0), 1e-12);
+  EXPECT_NEAR(u.condition, 16.0, 1e-9);
+  // correlated columns: J^T J = [[a, c], [c, d]], inverse diagonal d / det and a / det
+  J.setZero();
+  J.col(0) << 1, 1, 1, 1, 0, 0, 0, 0;
+  J.col(1) << 1, 1, 0, 0, 1, 1, 1, 1;
+  const double a = 4, c = 2, d = 6, det = a * d - c * c;
+  u = gauss_newton_spread(J, misfit);
+  EXPECT_NEAR(u.sd[0], std::sqrt(s2 * d / det), 1e-12);
+  EXPECT_NEAR(u.sd[1], std::sqrt(s2 * a / det), 1e-12);
+  const double disc = std::sqrt((a - d) * (a - d) + 4 * c * c);
+  EXPECT_NEAR(u.condition, (a + d + disc) / (a + d - disc), 1e-9);
+  // a parameter no residual depends on: undefined spread, infinite condition; the other stays defined
+  J.col(1).setZero();
+  u = gauss_newton_spread(J, misfit);
+  EXPECT_NEAR(u.sd[0], std::sqrt(s2 / 4.0), 1e-12);
+  EXPECT_TRUE(std::isnan(u.sd[1]));
+  EXPECT_TRUE(std::isinf(u.condition));
+}
+
+// End to end: flow curves do not depend on the frictional law, so a free frictional.K0 must be
+// reported "not identified" while e_sd and eps_n, which shape the curves (2 % noise), are pinned
+// to a small fraction of their ranges; identifiability.csv carries the same verdicts.
+TEST(CalibrationIdentifiability, ParameterWithoutEffectIsFlagged) {
+  Scratch dir;
+  CollisionalParams<double> truth;
+  truth.rho_p = 1;
+  truth.d = 1;
+  truth.V_sd = 1.0 / 1.6;
+  truth.V_m = 0.35;
+  truth.eps_n = 0.8;
+  truth.mu_p = 0.0;
+  dir.write("flow.csv", synthetic_flow_curves(truth, 0.02, 5));
+  dir.write("start.toml",
+            "[collisional]\nrho_p = 1\nd = 1\ne_sd = 0.6\nV_m = 0.35\neps_n = 0.8\nmu_p = 0\n"
+            "[frictional]\nK0 = 150\nnu = 0.22\nn = 0.6\nphi_c_deg = 30\ne_ref = 0.937\nlambda_c = 0.022\n"
+            "xi = 0.71\nA_d = 4\nk_p = 0.001\nn_p = 1\nn_d = 1\np_at = 101.3e3\n");
+  const CalibrationJob job = load_job(
+      dir.write("job.toml", synthetic_job("[[free]]\nkey = \"frictional.K0\"\nlower = 20\nupper = 2000\nlog = true\n")));
+  Objective obj(job, 1);
+  FitOptions fo;
+  fo.progress = false;
+  fo.evaluate_only = true;  // at the truth: the spread is that of the noise
+  const FitResult r = fit(obj, fo);
+  const Identifiability& id = r.identifiability;
+  const std::size_t jk = index_of(job, "frictional.K0"), je = index_of(job, "collisional.e_sd"),
+                    jn = index_of(job, "collisional.eps_n");
+  EXPECT_EQ(id.status[jk], "not identified");
+  EXPECT_TRUE(std::isnan(id.sd_range[jk]));
+  EXPECT_TRUE(std::isinf(id.condition));
+  for (std::size_t j : {je, jn}) {
+    EXPECT_EQ(id.status[j], "identified") << job.free[j].key;
+    EXPECT_LT(id.sd_range[j], 0.02) << job.free[j].key;
+    EXPECT_GT(id.sd_range[j], 0.0) << job.free[j].key;
+  }
+  const std::string text = format_identifiability(obj, r);
+  EXPECT_NE(text.find("not identified"), std::string::npos) << text;
+  write_outputs(obj, r, dir.path("out"), false, false);
+  std::ifstream in(dir.path("out/identifiability.csv"));
+  std::string line, csv;
+  std::getline(in, line);
+  EXPECT_EQ(line, "key,fitted,lower,upper,log,sd_range,rel_sd,lower_2sd,upper_2sd,correlated_with,condition,status");
+  while (std::getline(in, line)) csv += line + "\n";
+  EXPECT_NE(csv.find("frictional.K0,150,20,2000,1,,,,,,,not identified"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("collisional.e_sd,0.6,0.3,0.9,0,"), std::string::npos) << csv;
+}
+
+// The same data and spread, two bounds for eps_n: its standard error in its own units does not
+// depend on the range searched (sd_range x range agree), so over [0.3, 0.99] it is identified and
+// over [0.799, 0.801] the same spread (~5e-4) is over 10 % of the range: "poorly identified".
+TEST(CalibrationIdentifiability, NarrowBoundsMakeTheSameSpreadPoorlyIdentified) {
+  Scratch dir;
+  CollisionalParams<double> truth;
+  truth.rho_p = 1;
+  truth.d = 1;
+  truth.V_sd = 1.0 / 1.6;
+  truth.V_m = 0.35;
+  truth.eps_n = 0.8;
+  truth.mu_p = 0.0;
+  dir.write("flow.csv", synthetic_flow_curves(truth, 0.02, 5));
+  dir.write("start.toml", "[collisional]\nrho_p = 1\nd = 1\ne_sd = 0.6\nV_m = 0.35\neps_n = 0.8\nmu_p = 0\n");
+  double sd_abs[2];
+  for (int k = 0; k < 2; ++k) {
+    std::string t = synthetic_job();
+    if (k == 1) t.replace(t.find("lower = 0.3\nupper = 0.99"), 24, "lower = 0.799\nupper = 0.801");
+    const CalibrationJob job = load_job(dir.write("job" + std::to_string(k) + ".toml", t));
+    Objective obj(job, 1);
+    FitOptions fo;
+    fo.progress = false;
+    fo.evaluate_only = true;
+    const FitResult r = fit(obj, fo);
+    const std::size_t j = index_of(job, "collisional.eps_n");
+    const FreeParameter& p = job.free[j];
+    sd_abs[k] = r.identifiability.sd_range[j] * (p.upper - p.lower);
+    EXPECT_EQ(r.identifiability.status[j], k == 0 ? "identified" : "poorly identified")
+        << "sd_range " << r.identifiability.sd_range[j] << "\n" << format_identifiability(obj, r);
+  }
+  EXPECT_NEAR(sd_abs[1] / sd_abs[0], 1.0, 0.02);
 }
 
 }  // namespace granflow::calibration::test

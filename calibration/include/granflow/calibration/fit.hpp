@@ -108,7 +108,29 @@ struct Identifiability {
   std::vector<std::pair<std::size_t, std::size_t>> correlated;  // defined and |correlation| > 0.95
   bool singular = false;
   long evaluations = 0;
+  // In the search's unit cube (each range, or log range, mapped onto [0, 1]; docs/calibration.md):
+  // the standard error of each parameter as a fraction of its range, sqrt(s2 (J^T J)^-1_jj) with
+  // J = d r / d u (NaN: undefined), and the condition number of J^T J, the Gauss-Newton Hessian of
+  // the misfit over 2 (inf: singular).
+  std::vector<double> sd_range;
+  double condition = 0;
+  // Per parameter: "identified", "correlated" (in a pair above), "poorly identified" (sd_range above
+  // kPoorlyIdentified) or "not identified" (undefined sd).
+  std::vector<std::string> status;
 };
+
+// sd_range above this fraction of the range: the +-2 sd interval spans 40 % of the range searched,
+// so the data pin the parameter little better than its bounds do.
+inline constexpr double kPoorlyIdentified = 0.1;
+
+// The unit-space spread of a least-squares fit from its Jacobian J = d r / d u (residuals x
+// parameters) and misfit sum r^2: per parameter sqrt(s2 (J^T J)^-1_jj) with s2 = misfit / (N - n)
+// (NaN where J^T J is singular in a direction that moves it, or N <= n); and cond(J^T J).
+struct UnitSpread {
+  std::vector<double> sd;
+  double condition = 0;
+};
+UnitSpread gauss_newton_spread(const Eigen::MatrixXd& J, double misfit);
 
 // What the ensemble method adds to a FitResult (algorithm.method = "ensemble").
 struct EnsembleReport {
@@ -181,5 +203,8 @@ std::string format_report(const Objective& objective, const FitResult& result);
 // "python3" or "/usr/bin/python3", whichever imports matplotlib (plot scripts); "" if neither.
 std::string python_with_matplotlib();
 std::string format_ensemble_report(const Objective& objective, const FitResult& result);
+// Per parameter: fitted value, sd as a fraction of its range, rel. s.d., status, cond(J^T J); the
+// end of the command's output and of report.txt (identifiability.csv holds the same).
+std::string format_identifiability(const Objective& objective, const FitResult& result);
 
 }  // namespace granflow::calibration
