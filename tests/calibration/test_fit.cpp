@@ -88,6 +88,19 @@ std::string synthetic_job(const std::string& extra = "") {
   return t;
 }
 
+// Grains of unit density and diameter, e_sd 0.6 (V_sd = 1/1.6), V_m 0.35, eps_n 0.8: the truth of
+// the synthetic flow curves.
+CollisionalParams<double> unit_grains(double mu_p) {
+  CollisionalParams<double> c;
+  c.rho_p = 1;
+  c.d = 1;
+  c.V_sd = 1.0 / 1.6;
+  c.V_m = 0.35;
+  c.eps_n = 0.8;
+  c.mu_p = mu_p;
+  return c;
+}
+
 }  // namespace
 
 TEST(CalibrationFit, DemFrictionlessFitImprovesAndStaysPhysical) {
@@ -163,13 +176,7 @@ TEST(CalibrationFit, SteadyShearRoundTripRecoversParameters) {
 // freeing both must be flagged as not identifiable.
 TEST(CalibrationFit, RestitutionAndFrictionAreFlaggedAsCorrelated) {
   Scratch dir;
-  CollisionalParams<double> truth;
-  truth.rho_p = 1;
-  truth.d = 1;
-  truth.V_sd = 1.0 / 1.6;
-  truth.V_m = 0.35;
-  truth.eps_n = 0.8;
-  truth.mu_p = 0.1;
+  const CollisionalParams<double> truth = unit_grains(0.1);
   dir.write("flow.csv", synthetic_flow_curves(truth, 0.0, 1));
   dir.write("start.toml", "[collisional]\nrho_p = 1\nd = 1\ne_sd = 0.6\nV_m = 0.35\neps_n = 0.8\nmu_p = 0.1\n");
   const CalibrationJob job =
@@ -216,13 +223,7 @@ TEST(CalibrationIdentifiability, GaussNewtonSpreadMatchesTheClosedForm) {
 // to a small fraction of their ranges; identifiability.csv carries the same verdicts.
 TEST(CalibrationIdentifiability, ParameterWithoutEffectIsFlagged) {
   Scratch dir;
-  CollisionalParams<double> truth;
-  truth.rho_p = 1;
-  truth.d = 1;
-  truth.V_sd = 1.0 / 1.6;
-  truth.V_m = 0.35;
-  truth.eps_n = 0.8;
-  truth.mu_p = 0.0;
+  const CollisionalParams<double> truth = unit_grains(0.0);
   dir.write("flow.csv", synthetic_flow_curves(truth, 0.02, 5));
   dir.write("start.toml",
             "[collisional]\nrho_p = 1\nd = 1\ne_sd = 0.6\nV_m = 0.35\neps_n = 0.8\nmu_p = 0\n"
@@ -263,13 +264,7 @@ TEST(CalibrationIdentifiability, ParameterWithoutEffectIsFlagged) {
 // over [0.799, 0.801] the same spread (~5e-4) is over 10 % of the range: "poorly identified".
 TEST(CalibrationIdentifiability, NarrowBoundsMakeTheSameSpreadPoorlyIdentified) {
   Scratch dir;
-  CollisionalParams<double> truth;
-  truth.rho_p = 1;
-  truth.d = 1;
-  truth.V_sd = 1.0 / 1.6;
-  truth.V_m = 0.35;
-  truth.eps_n = 0.8;
-  truth.mu_p = 0.0;
+  const CollisionalParams<double> truth = unit_grains(0.0);
   dir.write("flow.csv", synthetic_flow_curves(truth, 0.02, 5));
   dir.write("start.toml", "[collisional]\nrho_p = 1\nd = 1\ne_sd = 0.6\nV_m = 0.35\neps_n = 0.8\nmu_p = 0\n");
   double sd_abs[2];
