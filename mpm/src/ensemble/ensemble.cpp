@@ -164,9 +164,7 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
     full.material.resize(su.point_body.size(), 0);
     for (int k = 0; k < nm; ++k) {
       if (!alive[k]) continue;
-      char number[16];
-      std::snprintf(number, sizeof number, "%04d", pvd_count[k]++);
-      const std::string name = "frame_" + std::string(number) + tag + ".vtu";
+      const std::string name = frame_file_name(pvd_count[k]++, tag);
       const std::string dir = member_dir(opt.out_dir, opt.first_member + k);
       write_vtu(dir + "/" + name, member_frame(full, k, np), sc.output.format, sc.output.fields);
       pvd[k].emplace_back(t, name);

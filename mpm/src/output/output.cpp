@@ -2,6 +2,7 @@
 // index, the series CSVs and the final profile.
 #include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <ostream>
 #include <sstream>
@@ -243,6 +244,12 @@ void write_vtu(const std::string& path, const Frame& fr, FrameFormat format, con
   }
   os << "</VTKFile>\n";
   file.commit();
+}
+
+std::string frame_file_name(int number, const std::string& tag) {
+  char digits[16];
+  std::snprintf(digits, sizeof digits, "%04d", number);
+  return "frame_" + std::string(digits) + tag + ".vtu";
 }
 
 void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& frames) {

@@ -161,9 +161,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
   auto write_frame = [&](const Frame& f, double t, const std::string& tag, Frame* spare = nullptr) {
     if (!files) return;
     const auto t0 = Clock::now();
-    char number[16];
-    std::snprintf(number, sizeof number, "%04d", frame_no++);
-    const std::string name = "frame_" + std::string(number) + tag + ".vtu";
+    const std::string name = frame_file_name(frame_no++, tag);
     pvd.emplace_back(t, name);
     FrameJob job;
     if (spare)

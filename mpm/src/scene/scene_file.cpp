@@ -264,14 +264,15 @@ mpm::Material read_material(TomlTable& mat, const std::string& path, const std::
   m.T0 = mat.number_or("T0", set.T0.value_or(1e-15), Bounds::non_negative());
   // the table's e0 and T0 win over the set's initial ones: a --set (or an ensemble's [[vary]]) of
   // those would run unchanged
-  for (const auto& a : sets)
+  for (const auto& a : sets) {
+    const std::string key = override_key(a.assignment);
     for (const char* k : {"e0", "T0"}) {
-      const std::string key = override_key(a.assignment);
       if (key != std::string("initial.") + k || !mat.has(k)) continue;
       throw InputError("--set '" + a.given + "' changes nothing: " + where(path, mat.line(k)) + "'" + mat.dotted(k) +
                        "' takes precedence over the parameter set's " + key + "; set " +
                        (a.material.empty() ? std::string("material.") + k : a.material + ":" + k) + " instead");
     }
+  }
   return m;
 }
 
@@ -800,9 +801,7 @@ mpm::Scene load_scene(const std::string& path, const SceneOverrides& overrides) 
 
 void add_params(SceneOverrides& ov, const std::string& value) {
   const auto eq = value.find('=');
-  const bool named = eq != std::string::npos && eq > 0 &&
-                     value.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") == eq;
-  if (named) {
+  if (eq != std::string::npos && material_name_ok(value.substr(0, eq))) {
     ov.material_params.push_back(value);
     return;
   }

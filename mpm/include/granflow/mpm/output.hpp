@@ -26,5 +26,7 @@ void write_profile_csv(const std::string& path, const std::vector<std::pair<doub
 void write_vtu(const std::string& path, const Frame& fr, FrameFormat format, const std::vector<std::string>& fields = {},
                io::Durability durability = io::Durability::Buffered);
 void write_pvd(const std::string& path, const std::vector<std::pair<double, std::string>>& frames);
+// "frame_NNNN<tag>.vtu": a run's (and an ensemble member's) frame files, numbered from 0.
+std::string frame_file_name(int number, const std::string& tag);
 
 }  // namespace granflow::mpm
