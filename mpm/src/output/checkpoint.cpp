@@ -15,8 +15,8 @@ namespace granflow::mpm {
 namespace {
 
 constexpr char kMagic[8] = {'G', 'F', 'M', 'P', 'M', 'C', 'K', 'P'};
-constexpr std::uint32_t kVersion = 5;  // 2: the maps of terrain runs; 3: boundary forces; 4: gauges, per-material series;
-                                       // 5: the last sample's force sums
+constexpr std::uint32_t kVersion = 6;  // 2: the maps of terrain runs; 3: boundary forces; 4: gauges, per-material series;
+                                       // 5: the last sample's force sums; 6: points the terrain held
 constexpr std::uint32_t kByteOrder = 0x01020304;
 constexpr size_t kHeader = 8 + 4 + 4 + 8 + 8;
 
@@ -209,7 +209,9 @@ std::string encode_checkpoint(const Checkpoint& c) {
   w.doubles(s.maps.max_depth);
   w.pod(static_cast<std::uint64_t>(s.maps.deposit.size()));
   for (const DepositRow& r : s.maps.deposit)
-    for (double v : {r.t, r.t_flow, r.area, r.volume, r.extent}) w.pod(v);
+    for (double v : {r.t, r.t_flow, r.area, r.volume, r.extent, r.ground_points, r.ground_depth}) w.pod(v);
+  w.pod(static_cast<std::int64_t>(s.maps.ground_pending.points));
+  w.pod(s.maps.ground_pending.depth);
   w.pod(static_cast<std::uint64_t>(s.forces.rows.size()));
   for (const ForceRow& r : s.forces.rows) {
     w.pod(r.t);
@@ -330,11 +332,14 @@ Checkpoint decode_checkpoint(std::string_view b) {
   s.maps.max_speed = r.doubles("maps.max_speed");
   s.maps.max_depth = r.doubles("maps.max_depth");
   if (s.maps.max_speed.size() != s.maps.max_depth.size()) Reader::fail("the maps have different cell counts");
-  for (std::uint64_t k = 0, n = r.count(40, "deposit series"); k < n; ++k) {
+  for (std::uint64_t k = 0, n = r.count(56, "deposit series"); k < n; ++k) {
     DepositRow row;
-    for (double* v : {&row.t, &row.t_flow, &row.area, &row.volume, &row.extent}) *v = r.pod<double>();
+    for (double* v : {&row.t, &row.t_flow, &row.area, &row.volume, &row.extent, &row.ground_points, &row.ground_depth})
+      *v = r.pod<double>();
     s.maps.deposit.push_back(row);
   }
+  s.maps.ground_pending.points = r.pod<std::int64_t>();
+  s.maps.ground_pending.depth = r.pod<double>();
   for (std::uint64_t k = 0, n = r.count(24 + kSumsBytes, "force rows"); k < n; ++k) {
     ForceRow row;
     row.t = r.pod<double>();

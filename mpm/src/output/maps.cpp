@@ -29,6 +29,7 @@ double plan_z(const Frame& fr, long i) { return fr.dim == 3 ? fr.x[2 * fr.n + i]
 
 TerrainMaps::TerrainMaps(const SceneSetup& su) : su_(&su) {
   const Scene& sc = su.scene;
+  ground_columns_ = !su.ground_field.empty();
   if (sc.dim == 2 && sc.base) {  // a profile along the base: bins of output.map_cell (else h) from the grid's left edge
     profile_ = true;
     cellsize_ = sc.output.map_cell > 0 ? sc.output.map_cell : sc.h;
@@ -103,7 +104,7 @@ std::vector<double> TerrainMaps::thickness(const Frame& fr) const {
   return th;
 }
 
-void TerrainMaps::sample(double t, double t_flow, const Frame& fr) {
+void TerrainMaps::sample(double t, double t_flow, const Frame& fr, const GroundStats& ground) {
   if (!active_) return;
   const std::vector<double> th = thickness(fr);
   const long n = fr.n;
@@ -135,6 +136,8 @@ void TerrainMaps::sample(double t, double t_flow, const Frame& fr) {
     hi = std::max(hi, along);
   }
   if (hi >= lo) row.extent = hi - lo + s;  // half a spacing beyond the outermost points each way
+  row.ground_points = static_cast<double>(ground.points);
+  row.ground_depth = ground.depth;
   st_.deposit.push_back(row);
 }
 
@@ -215,9 +218,13 @@ void TerrainMaps::write_deposit_csv(const std::string& dir) const {
   if (!active_) return;
   std::ostringstream os;
   os.precision(8);
-  os << (profile_ ? "t,t_flow,length,area,extent\n" : "t,t_flow,area,volume,extent\n");
-  for (const DepositRow& r : st_.deposit)
-    os << r.t << ',' << r.t_flow << ',' << r.area << ',' << r.volume << ',' << r.extent << '\n';
+  os << (profile_ ? "t,t_flow,length,area,extent" : "t,t_flow,area,volume,extent")
+     << (ground_columns_ ? ",ground_points,ground_depth\n" : "\n");
+  for (const DepositRow& r : st_.deposit) {
+    os << r.t << ',' << r.t_flow << ',' << r.area << ',' << r.volume << ',' << r.extent;
+    if (ground_columns_) os << ',' << r.ground_points << ',' << r.ground_depth;
+    os << '\n';
+  }
   io::write_file(dir + "/deposit.csv", os.str(), io::Durability::Buffered);
 }
 

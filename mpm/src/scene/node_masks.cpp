@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <cstdlib>
 #include <iterator>
 #include <limits>
 #include <string>
@@ -32,6 +33,9 @@ std::vector<std::uint8_t> terrain_nodes(const Scene& sc, SceneSetup& su, const S
   const bool floored = std::any_of(sc.walls.begin(), sc.walls.end(), [](const Wall& w) { return w.axis == 1 && !w.at_max; });
   const int* nd = su.nodes.data();
   double low = std::numeric_limits<double>::max(), high = -low;  // the ground's range over the footprint
+  const bool points = sc.terrain->contact != Terrain::Contact::Nodes;
+  const double lift = std::getenv("GRANFLOW_GROUND_LIFT") ? std::atof(std::getenv("GRANFLOW_GROUND_LIFT")) : 0.0;
+  if (points) su.ground_field.assign(4 * static_cast<size_t>(su.n_nodes), 0.0);
   for (int kz = 0; kz < nd[2]; ++kz)
     for (int kx = 0; kx < nd[0]; ++kx) {
       const double x = su.origin[0] + kx * sc.h, z = su.origin[2] + kz * sc.h;
@@ -45,11 +49,17 @@ std::vector<std::uint8_t> terrain_nodes(const Scene& sc, SceneSetup& su, const S
                                 ") lies below the grid (y from " + fmt(sc.origin[1]) +
                                 "): lower grid.origin[1] or raise terrain.origin[2]");
       double nrm[3] = {0, -1, 0};
-      const double slope = frictional || forces ? ground.normal(xc, zc, nrm) : 0.0;
+      const double slope = frictional || forces || points ? ground.normal(xc, zc, nrm) : 0.0;
+      if (points)  // signed distance along the normal: (y - b) cos(slope angle), exact for a plane
+        for (int ky = 0; ky < nd[1]; ++ky) {
+          const long I = kx + static_cast<long>(nd[0]) * (ky + static_cast<long>(nd[1]) * kz);
+          su.ground_field[I] = (su.origin[1] + ky * sc.h - b) * -nrm[1];
+          for (int d = 0; d < 3; ++d) su.ground_field[(1 + d) * su.n_nodes + I] = nrm[d];
+        }
       const double band = 2 * sc.h * (1 + std::sqrt(2.0) * slope);  // reach of a stencil (frictional ground, force probes)
       for (int ky = 0; ky < nd[1]; ++ky) {
         const double y = su.origin[1] + ky * sc.h;
-        if (y > b + tol) break;
+        if (y > b + tol + lift * sc.h) break;
         const long I = kx + static_cast<long>(nd[0]) * (ky + static_cast<long>(nd[1]) * kz);
         if (forces && b - y <= band) ground_nodes.push_back({I, {nrm[0], nrm[1], nrm[2]}});
         if (frictional && b - y <= band)
@@ -68,6 +78,8 @@ std::vector<std::uint8_t> terrain_nodes(const Scene& sc, SceneSetup& su, const S
     a.has_lo = true;
   }
   su.terrain_mu = frictional ? *sc.terrain->mu : 0.0;
+  su.ground_mu = frictional ? *sc.terrain->mu : -1.0;
+  su.ground_penalty = sc.terrain->contact == Terrain::Contact::Penalty;
   return ground_mask;
 }
 

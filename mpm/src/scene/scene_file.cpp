@@ -529,11 +529,15 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
       t->fail("file", "terrain needs grid.dim = 3; a 2D scene takes its ground as [base] (x and y, or file = a "
                       "profile CSV)");
     sc.lines["terrain"] = t->line();
-    for (const char* k : {"file", "origin", "mu"}) note(*t, k);
+    for (const char* k : {"file", "origin", "mu", "contact"}) note(*t, k);
     mpm::Terrain terrain;
     terrain.file = t->string("file");
     terrain.origin = vec(*t, "origin", 3);
     if (t->has("mu")) terrain.mu = t->number("mu", Bounds::non_negative());  // absent: no-slip
+    const std::string contact = t->choice("contact", {"nodes", "points", "penalty"}, "nodes");
+    terrain.contact = contact == "points"    ? mpm::Terrain::Contact::Points
+                      : contact == "penalty" ? mpm::Terrain::Contact::Penalty
+                                             : mpm::Terrain::Contact::Nodes;
     try {
       terrain.raster = std::make_shared<const io::Raster>(read_raster(beside(path, terrain.file)));
     } catch (const InputError& e) {

@@ -177,6 +177,91 @@ GF_HDI void terrain_contact(const GridView<S>& gv, const TerrainNode& t, double 
   for (int d = 0; d < D; ++d) gv.f(G::VNEW + d, t.node) = v[d];
 }
 
+// ---- points at the terrain (3D) --------------------------------------------------------------
+
+// The ground read from the grid (terrain.contact = "points" or "penalty"): per node its signed
+// distance from the ground along the ground's normal (positive above) and that normal into the
+// ground, made at set-up (SceneSetup::ground_field, field-major: sd, nx, ny, nz, each n_nodes
+// long, nodes of the whole grid). Trilinear between a cell's 8 nodes: exact for a plane.
+struct GroundField {
+  const double* a = nullptr;
+  long n = 0;
+  int nodes[3] = {0, 0, 0};
+  double origin[3] = {0, 0, 0};
+  double inv_h = 0;
+  GF_HDI double f(int k, long I) const { return a[k * n + I]; }
+};
+
+// What a point's correction removed: its momentum into the ground [N s] and the depth [m].
+struct GroundFix {
+  double dp[3] = {0, 0, 0};
+  double depth = 0;
+};
+
+// Interpolates the field to x: the signed distance, and the normal (unit) into the ground.
+GF_HDI double ground_at(const GroundField& g, const double* x, double* n) {
+  int c[3];
+  double w[3];
+  for (int d = 0; d < 3; ++d) {
+    const double s = (x[d] - g.origin[d]) * g.inv_h;
+    double f = std::floor(s);
+    int i = static_cast<int>(f);
+    if (i < 0) i = 0;
+    if (i > g.nodes[d] - 2) i = g.nodes[d] - 2;
+    double t = s - static_cast<double>(i);
+    w[d] = t < 0 ? 0 : (t > 1 ? 1 : t);
+    c[d] = i;
+  }
+  double sd = 0, m[3] = {0, 0, 0};
+  for (int k = 0; k < 8; ++k) {
+    const int a = k & 1, b = (k >> 1) & 1, e = (k >> 2) & 1;
+    const double wk = (a ? w[0] : 1 - w[0]) * (b ? w[1] : 1 - w[1]) * (e ? w[2] : 1 - w[2]);
+    const long I = (c[0] + a) + static_cast<long>(g.nodes[0]) * ((c[1] + b) + static_cast<long>(g.nodes[1]) * (c[2] + e));
+    sd += wk * g.f(0, I);
+    for (int d = 0; d < 3; ++d) m[d] += wk * g.f(1 + d, I);
+  }
+  const double len = std::sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+  for (int d = 0; d < 3; ++d) n[d] = len > 0 ? m[d] / len : (d == 1 ? -1.0 : 0.0);
+  return sd;
+}
+
+// The terrain's hold on a point after G2P. "points" (penalty = false): a point below the ground
+// is put back on it along the normal and loses its velocity into the ground by the Coulomb law
+// of the nodes (mu < 0: no-slip, all of it). "penalty": the point stays and is pushed out at
+// depth / (4 dt), a quarter of its depth per step, with no friction of its own. Returns whether
+// the point was below the ground; fix gets the momentum it gave the ground and its depth.
+template <class S>
+GF_HDI bool ground_point_contact(const ParticleView<S>& pv, long p, const GroundField& g, double mu, bool penalty,
+                                 double dt, GroundFix& fix) {
+  double x[3], n[3];
+  for (int d = 0; d < 3; ++d) x[d] = double(pv.f(d, p));
+  const double sd = ground_at(g, x, n);
+  if (!(sd < 0)) return false;
+  S v[3], v0[3];
+  for (int d = 0; d < 3; ++d) v0[d] = v[d] = pv.f(3 + d, p);
+  if (penalty) {
+    const double push = -sd / (4 * dt);
+    for (int d = 0; d < 3; ++d) v[d] -= S(push * n[d]);
+  } else {
+    for (int d = 0; d < 3; ++d) pv.f(d, p) = S(x[d] + sd * n[d]);
+    if (mu < 0) {
+      S vn = S(0);
+      for (int d = 0; d < 3; ++d) vn += v[d] * S(n[d]);
+      if (vn > S(0))
+        for (int d = 0; d < 3; ++d) v[d] = S(0);
+    } else {
+      coulomb_contact<3, S>(v, n, mu);
+    }
+  }
+  const double m = double(pv.f(6, p));
+  for (int d = 0; d < 3; ++d) {
+    pv.f(3 + d, p) = v[d];
+    fix.dp[d] = m * double(v0[d] - v[d]);
+  }
+  fix.depth = -sd;
+  return true;
+}
+
 // ---- obstacles ----------------------------------------------------------------------------
 
 // A node inside a rigid obstacle or on its surface, with the normal (into the obstacle) of the

@@ -75,9 +75,14 @@ struct BaseLine {
 // northing and elevation minus `origin` are the scene's x, z and y. Nodes on or below the
 // ground are held: no-slip, or (mu) Coulomb friction with the raster's own normal.
 struct Terrain {
+  // How points are kept out of the ground (docs/mpm_terrain.md, "Held nodes and contact"):
+  // Nodes: the held and listed nodes only; Points: also points below the ground put back on
+  // it; Penalty: also points below the ground pushed out.
+  enum class Contact { Nodes, Points, Penalty };
   std::string file;                            // as the scene gives it (messages)
   std::vector<double> origin = {0.0, 0.0, 0.0};  // easting, northing, elevation [m]
   std::optional<double> mu;                    // absent: no-slip
+  Contact contact = Contact::Nodes;
   std::shared_ptr<const io::Raster> raster;
 };
 

@@ -1,0 +1,254 @@
+// Terrain contact that holds (issue 51; docs/mpm_terrain.md, "Held nodes and contact"): a
+// 10 x 10 x 4 cm release volume on a plane dipping 30 deg, settled and then free, measured for
+// sinking, creep (mu 0.7 holds it) and the Coulomb acceleration (mu 0.3). CPU twin.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <granflow/io/raster.hpp>
+#include <granflow/mpm/kernels.hpp>
+#include <granflow/mpm/runner.hpp>
+#include <granflow/mpm/scene.hpp>
+
+#include "sampled_run.hpp"
+#include "test_constants.hpp"
+#include "tiny_column.hpp"
+
+using namespace granflow;
+using namespace granflow::mpm;
+using namespace granflow::mpm::test;
+
+namespace {
+
+struct Slide {
+  double h = 0.02;
+  ShapeKind shape = ShapeKind::Linear;
+  double plan_deg = 0;  // dip direction in plan, from x towards z
+  double mu = 0.3;
+  Terrain::Contact contact = Terrain::Contact::Points;
+  bool level = false;   // a level raster with gravity tilted by the dip instead of a tilted raster
+  double settle = 0.1, free = 0.4;
+  double theta_deg = 30, phi_c_deg = 50;
+  double block = 0.10, thick = 0.04;
+};
+
+struct SlideResult {
+  bool ok = true;
+  long points = 0;
+  double deepest = 0;  // largest depth below the ground over the samples [point spacings]
+  double creep = 0;    // mean down-dip displacement of the base's middle third after the settle [m]
+  double creep_rate = 0;  // their mean down-dip velocity at the end [m/s]
+  double creep_half = 0;  // their displacement over the first half of the free stage [m]
+  double accel = 0;    // fitted down-dip acceleration of the centre of mass over 0.1-0.4 s after it [m/s^2]
+  double coulomb = 0;  // g (sin theta - mu cos theta), at least 0
+  double seconds = 0;  // CPU time of the run
+  long steps = 0;
+};
+
+std::shared_ptr<const io::Raster> plane(double west, double south, double cell, long n, double sx, double sz) {
+  auto r = std::make_shared<io::Raster>();
+  r->file = "memory";
+  r->ncols = r->nrows = n;
+  r->west = west;
+  r->south = south;
+  r->cellsize = cell;
+  for (long row = 0; row < n; ++row)
+    for (long col = 0; col < n; ++col) r->values.push_back(-(sx * r->centre_east(col) + sz * r->centre_north(row)));
+  return r;
+}
+
+SlideResult run_slide(const Slide& c) {
+  const double th = c.theta_deg * kDeg, ph = c.plan_deg * kDeg;
+  const double dx = std::cos(ph), dz = std::sin(ph);
+  const double tn = c.level ? 0.0 : std::tan(th);
+  const double travel = 0.5 * kG * std::max(0.0, std::sin(th) - c.mu * std::cos(th)) * c.free * c.free + 0.02;
+  const double margin = 2 * c.h + 0.01;
+  // footprint: the block and its travel along the dip's plan direction
+  const double Lx = std::ceil((margin * 2 + c.block + travel * std::fabs(dx)) / c.h) * c.h;
+  const double Lz = std::ceil((margin * 2 + c.block + travel * std::fabs(dz)) / c.h) * c.h;
+  const double drop = tn * (Lx * std::fabs(dx) + Lz * std::fabs(dz));
+  const double H = drop + 2 * c.h + 0.013;  // ground at y = H - tn (x dx + z dz), off the node rows
+  const double Ly = std::ceil((H + c.thick / std::max(0.5, std::cos(th)) + 0.04) / c.h) * c.h;
+  auto ground = plane(-0.1, -0.1, 0.05, static_cast<long>((std::max(Lx, Lz) + 0.3) / 0.05), tn * dx, tn * dz);
+
+  Scene sc = test::tiny_column(ModelKind::Frictional);
+  sc.material = flume_scene(0.04, 1e-4, ModelKind::Frictional, ShapeKind::Linear, 0.1).material;
+  sc.material.params.f.phi_c = c.phi_c_deg * kDeg;
+  sc.dim = 3;
+  sc.origin = {0.0, 0.0, 0.0};
+  sc.size = {Lx, Ly, Lz};
+  sc.h = c.h;
+  sc.dt = 1e-4 * std::min(1.0, c.h / 0.01);
+  sc.shape = c.shape;
+  sc.ppc_axis = 2;
+  sc.initial.geostatic = true;
+  sc.walls.clear();
+  sc.tracks.clear();
+  sc.runout_x.clear();
+  sc.runout_y.clear();
+  sc.output.times.clear();
+  const std::vector<double> dip = c.level ? std::vector<double>{dx, 0.0, dz}
+                                          : std::vector<double>{std::cos(th) * dx, -std::sin(th), std::cos(th) * dz};
+  if (c.level)
+    sc.gravity = {kG * std::sin(th) * dx, -kG * std::cos(th), kG * std::sin(th) * dz};
+  else
+    sc.gravity = {0.0, -kG, 0.0};
+  Stage settle, slide;
+  settle.name = "settle";
+  settle.duration = c.settle;
+  settle.damping = 0.5;
+  slide.name = "slide";
+  slide.duration = c.free;
+  sc.stages = {settle, slide};
+  Terrain t;
+  t.file = "memory";
+  t.origin = {0.0, 0.0, -H};
+  t.mu = c.mu;
+  t.contact = c.contact;
+  t.raster = ground;
+  sc.terrain = t;
+  const double a0 = margin + (dx < 0 ? travel * std::fabs(dx) : 0.0), b0 = margin + (dz < 0 ? travel * std::fabs(dz) : 0.0);
+  Body body;
+  body.top = plane(-0.1, -0.1, 0.05, ground->ncols, tn * dx, tn * dz);
+  {
+    auto top = std::make_shared<io::Raster>(*body.top);
+    for (double& v : top->values) v += c.thick;
+    body.top = top;
+  }
+  body.plan_x = {a0, a0 + c.block, a0 + c.block, a0};
+  body.plan_z = {b0, b0, b0 + c.block, b0 + c.block};
+  sc.bodies = {body};
+  const SceneSetup su = make_setup(sc);
+
+  auto ground_y = [&](double x, double z) { return H - tn * (x * dx + z * dz); };
+  const double cs = c.level ? 1.0 : std::cos(th);  // normal distance = vertical height x cos
+  const long n = su.particles.n;
+  std::vector<double> m = su.particles.m;
+  double M = 0;
+  for (double v : m) M += v;
+  SlideResult out;
+  out.points = n;
+  out.coulomb = kG * std::max(0.0, std::sin(th) - c.mu * std::cos(th));
+  std::vector<double> ts, vs;
+  Frame settled, last, half;
+  bool have_settled = false;
+  const auto t0 = std::chrono::steady_clock::now();
+  run_sampled(su, 0.01, [&](const Frame& f, double t, int si) {
+    double deepest = 0, p = 0;
+    for (long i = 0; i < f.n; ++i) {
+      const double d = (f.x[n + i] - ground_y(f.x[i], f.x[2 * n + i])) * cs;
+      deepest = std::max(deepest, -d);
+      for (int k = 0; k < 3; ++k) p += m[i] * f.v[k * f.n + i] * dip[k];
+    }
+    out.deepest = std::max(out.deepest, deepest / su.spacing);
+    if (si == 0 && t >= c.settle - 1e-9 && !have_settled) {
+      settled = f;
+      have_settled = true;
+    }
+    if (si == 1) {
+      ts.push_back(t - c.settle);
+      vs.push_back(p / M);
+    }
+    last = f;
+    if (si == 1 && std::fabs(t - c.settle - c.free / 2) < 1e-6) half = f;
+    out.steps += 1;
+  });
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (!have_settled || last.n == 0 || ts.empty() || ts.back() < c.free - 1e-6) {
+    out.ok = false;
+    return out;
+  }
+  // creep: points within one spacing of the ground at the settle's end, in the middle third
+  double s = 0, cnt = 0;
+  for (long i = 0; i < n; ++i) {
+    const double x0 = su.particles.x[i], z0 = su.particles.x[2 * n + i];
+    if (x0 < a0 + c.block / 3 || x0 > a0 + 2 * c.block / 3 || z0 < b0 + c.block / 3 || z0 > b0 + 2 * c.block / 3)
+      continue;
+    const double d = (settled.x[n + i] - ground_y(settled.x[i], settled.x[2 * n + i])) * cs;
+    if (d > su.spacing) continue;
+    double u = 0, w = 0, uh = 0;
+    for (int k = 0; k < 3; ++k) {
+      u += (last.x[k * n + i] - settled.x[k * n + i]) * dip[k];
+      w += last.v[k * n + i] * dip[k];
+      uh += (half.x[k * n + i] - settled.x[k * n + i]) * dip[k];
+    }
+    s += u;
+    out.creep_rate += w;
+    out.creep_half += uh;
+    cnt += 1;
+  }
+  out.creep = cnt > 0 ? s / cnt : 0;
+  out.creep_rate /= std::max(1.0, cnt);
+  out.creep_half /= std::max(1.0, cnt);
+  double st = 0, sv = 0, stt = 0, stv = 0, nn = 0;
+  for (size_t k = 0; k < ts.size(); ++k) {
+    if (ts[k] < 0.1 - 1e-9 || ts[k] > 0.4 + 1e-9) continue;
+    st += ts[k];
+    sv += vs[k];
+    stt += ts[k] * ts[k];
+    stv += ts[k] * vs[k];
+    nn += 1;
+  }
+  out.accel = (nn * stv - st * sv) / (nn * stt - st * st);
+  return out;
+}
+
+const char* name_of(Terrain::Contact k) {
+  return k == Terrain::Contact::Nodes ? "nodes" : k == Terrain::Contact::Points ? "points" : "penalty";
+}
+
+void print(const Slide& c, const SlideResult& r) {
+  std::printf("%-7s %-9s h %2.0f mm dip %2.0f%s mu %.1f: %s %6ld points, deepest %5.2f spacings, creep %6.2f mm, "
+              "(half %5.2f, %5.1f mm/s at the end), accel %7.4f (Coulomb %.4f, %+6.2f %%), %.1f s\n",
+              name_of(c.contact), c.shape == ShapeKind::Linear ? "linear" : "quadratic", c.h * 1e3, c.plan_deg,
+              c.level ? " level" : "", c.mu, r.ok ? "ran" : "STOPPED", r.points, r.deepest, r.creep * 1e3, r.creep_half * 1e3, r.creep_rate * 1e3, r.accel,
+              r.coulomb, r.coulomb > 0 ? 100 * (r.accel / r.coulomb - 1) : 0.0, r.seconds);
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+// The comparison of docs/mpm_terrain.md: GRANFLOW_CONTACT_MATRIX=1 runs it (minutes).
+TEST(TerrainContact, ComparisonMatrix) {
+  if (!std::getenv("GRANFLOW_CONTACT_MATRIX")) GTEST_SKIP() << "set GRANFLOW_CONTACT_MATRIX=1";
+  const std::string only = std::getenv("GRANFLOW_CONTACT_MATRIX");
+  for (auto k : {Terrain::Contact::Nodes, Terrain::Contact::Points, Terrain::Contact::Penalty})
+    for (double h : {0.02, 0.01})
+      for (auto sh : {ShapeKind::Linear, ShapeKind::QuadraticBSpline})
+        for (double mu : {0.3, 0.7}) {
+          Slide c;
+          c.contact = k;
+          c.h = h;
+          c.shape = sh;
+          c.mu = mu;
+          if (only != "1" && only.find(name_of(k)) == std::string::npos) continue;
+          print(c, run_slide(c));
+        }
+}
+
+// Single cases for the investigation: GRANFLOW_CONTACT_CASE="contact shape h_mm plan_deg mu level dt settle".
+TEST(TerrainContact, OneCase) {
+  const char* e = std::getenv("GRANFLOW_CONTACT_CASE");
+  if (!e) GTEST_SKIP() << "set GRANFLOW_CONTACT_CASE";
+  char contact[16], shape[16];
+  double hmm = 20, plan = 0, mu = 0.7, settle = 0.1;
+  int level = 0;
+  ASSERT_GE(std::sscanf(e, "%15s %15s %lf %lf %lf %d %lf", contact, shape, &hmm, &plan, &mu, &level, &settle), 6);
+  Slide c;
+  const std::string k = contact;
+  c.contact = k == "nodes" ? Terrain::Contact::Nodes : k == "points" ? Terrain::Contact::Points : Terrain::Contact::Penalty;
+  c.shape = std::string(shape) == "linear" ? ShapeKind::Linear : ShapeKind::QuadraticBSpline;
+  c.h = hmm * 1e-3;
+  c.plan_deg = plan;
+  c.mu = mu;
+  c.level = level != 0;
+  c.settle = settle;
+  print(c, run_slide(c));
+}
