@@ -99,18 +99,19 @@ RunSummary run_to(const SceneSetup& su, const fs::path& out, double stop_after =
   return run(su, *r, opt);
 }
 
-// deposit.csv's rows (t, t_flow, area, volume, extent) after its header.
+// deposit.csv's rows (t, t_flow, area, volume, extent, points_below_ground, max_depth_below_ground)
+// after its header.
 std::vector<std::vector<double>> deposit_rows(const fs::path& out) {
   std::istringstream in(read_text(out / "deposit.csv"));
   std::string line;
   std::getline(in, line);
-  EXPECT_EQ(line, "t,t_flow,area,volume,extent");
+  EXPECT_EQ(line, "t,t_flow,area,volume,extent,points_below_ground,max_depth_below_ground");
   std::vector<std::vector<double>> rows;
   while (std::getline(in, line)) {
     std::vector<double> row;
     std::istringstream ls(line);
     for (std::string cell; std::getline(ls, cell, ',');) row.push_back(std::stod(cell));
-    EXPECT_EQ(row.size(), 5u) << line;
+    EXPECT_EQ(row.size(), 7u) << line;
     rows.push_back(row);
   }
   return rows;
@@ -169,6 +170,7 @@ TEST(TerrainMaps, BlockAtRestGivesItsHeightAndVolume) {
     EXPECT_NEAR(r[3], 0.08 * H * 0.08, 1e-10) << "t = " << r[0];  // volume
     EXPECT_NEAR(r[2], 4 * 0.04 * 0.04, 1e-12);                    // area: the four cells
     EXPECT_NEAR(r[4], 0.08, 0.05 * su.spacing);                   // extent along x (its edges bulge)
+    EXPECT_EQ(r[5], 0.0);                                         // no point below the ground
   }
   std::printf("block at rest: thickness %.6f m on its cells (height %.3f), volume %.6e m^3, extent %.5f m\n",
               m.at(m.nrows - 1 - 1, 1), H, rows.back()[3], rows.back()[4]);

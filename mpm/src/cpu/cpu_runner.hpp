@@ -56,7 +56,7 @@ int base_column(const ParticleView<S>& pv, long p, const GridDesc<D, S>& g) {
 template <int D>
 void add_step_forces(BoundaryForces& f, const std::vector<ForcePart>& parts, int n_boundaries,
                      const std::vector<ForceProbe>& probes, const std::vector<double>& dp, double dt,
-                     std::vector<ForceSums>& step, int extra_part = -1, const ForceSums* extra = nullptr) {
+                     std::vector<ForceSums>& step) {
   const long np = static_cast<long>(probes.size());
   step.assign(parts.size(), ForceSums{});
   for (size_t q = 0; q < parts.size(); ++q) {
@@ -67,7 +67,6 @@ void add_step_forces(BoundaryForces& f, const std::vector<ForcePart>& parts, int
       add_probe_momentum<D>(step[q], probes[i], d3, part.moment_point);
       for (int d = 0; d < D; ++d) f.node_impulse[d * np + i] += d3[d];
     }
-    if (extra && static_cast<int>(q) == extra_part) add_step_sums(step[q], *extra);  // the terrain's points
     add_force_step(f.parts[q], step[q], dt);
   }
   for (int b = 0; b < n_boundaries; ++b) {
@@ -132,22 +131,6 @@ class CpuRunner final : public Runner {
       terrain_ = su.terrain;
       terrain_mu_ = su.terrain_mu;
     }
-    if constexpr (kBoundary && D == 3) {  // points at the terrain (terrain.contact)
-      if (!su.ground_field.empty()) {
-        ground_field_ = su.ground_field;
-        ground_.a = ground_field_.data();
-        ground_.n = su.n_nodes;
-        for (int d = 0; d < 3; ++d) {
-          ground_.nodes[d] = su.nodes[d];
-          ground_.origin[d] = su.origin[d];
-        }
-        ground_.inv_h = 1.0 / su.scene.h;
-        ground_mu_ = su.ground_mu;
-        ground_penalty_ = su.ground_penalty;
-        for (size_t q = 0; q < su.force_parts.size(); ++q)
-          if (su.force_boundaries[su.force_parts[q].boundary] == "terrain") ground_part_ = static_cast<int>(q);
-      }
-    }
     // obstacles and boundary forces: ensembles list each member's nodes (global indices)
     if constexpr (kBoundary) {
       obstacles_ = su.obstacle_nodes;
@@ -183,14 +166,12 @@ class CpuRunner final : public Runner {
     t_ += dt;
     p2g_phase(0);
     grid_phase();
-    const StepResult r = g2p_phase();  // and the terrain's hold on points (reads the grid only)
     if (!probes_.empty()) {
       probe_dp_.assign(static_cast<size_t>(D) * probes_.size(), 0.0);
       probe_momenta(probe_dp_);
-      add_step_forces<D>(forces_, parts_, n_boundaries_, probes_, probe_dp_, dt, step_sums_, ground_part_,
-                         &ground_step_);
+      add_step_forces<D>(forces_, parts_, n_boundaries_, probes_, probe_dp_, dt, step_sums_);
     }
-    return r;
+    return g2p_phase();
   }
 
   // ---- the phases of a step (a slab runs them with the exchanges of cpu_slabs.hpp between) ----
@@ -297,8 +278,6 @@ class CpuRunner final : public Runner {
         }
       }
     }
-    if constexpr (D == 3)
-      if (!ground_field_.empty() && !any) ground_pass();
     times_.g2p += seconds_since(t0);
     ++times_.steps;
     count_updates();
@@ -390,13 +369,6 @@ class CpuRunner final : public Runner {
   UpdateStats update_stats() const override { return stats_; }
   void reset_times() override { times_ = PhaseTimes{}; }
   void take_forces(BoundaryForces& out, bool keep) override { take_host_forces(forces_, out, keep); }
-  GroundStats take_ground() override {
-    const GroundStats g = ground_stats_;
-    ground_stats_ = GroundStats{};
-    return g;
-  }
-  void restore_ground(const GroundStats& g) override { ground_stats_ = g; }
-  const ForceSums& ground_step() const { return ground_step_; }
   void restore_forces(const BoundaryForces& in) override { restore_host_forces(forces_, in); }
   std::string device() const override {
     int threads = 1;
@@ -579,44 +551,6 @@ class CpuRunner final : public Runner {
     for (long i = 0; i < nt; ++i) terrain_contact<D, S>(gv, t[i], terrain_mu_);
   }
 
-  // The terrain's hold on points below the ground after G2P (boundary.hpp
-  // ground_point_contact): the step's count, deepest point and, with forces, the momentum the
-  // points gave the ground, summed in point order (the same sums for any thread count).
-  void ground_pass() {
-    const ParticleView<S> pv = points();
-    const long n = n_;
-    ground_fix_.resize(static_cast<size_t>(n));
-    ground_hit_.assign(static_cast<size_t>(n), 0);
-    GroundFix* fx = ground_fix_.data();
-    std::uint8_t* hit = ground_hit_.data();
-    const GroundField g = ground_;
-    const double mu = ground_mu_, dt = double(sp_.dt);
-    const bool pen = ground_penalty_;
-    long count = 0;
-    double deepest = 0;
-#pragma omp parallel for schedule(static) reduction(+ : count) reduction(max : deepest)
-    for (long p = 0; p < n; ++p)
-      if (ground_point_contact<S>(pv, p, g, mu, pen, dt, fx[p])) {
-        hit[p] = 1;
-        ++count;
-        deepest = std::max(deepest, fx[p].depth);
-      }
-    ground_stats_.points += count;
-    ground_stats_.depth = std::max(ground_stats_.depth, deepest);
-    ground_step_ = ForceSums{};
-    if (ground_part_ < 0 || count == 0) return;
-    const double* about = parts_[ground_part_].moment_point;
-    for (long p = 0; p < n; ++p) {
-      if (!hit[p]) continue;
-      ForceProbe at;
-      double x[3], nrm[3];
-      for (int d = 0; d < 3; ++d) at.x[d] = x[d] = double(pv.f(d, p));
-      ground_at(g, x, nrm);
-      for (int d = 0; d < 3; ++d) at.n[d] = nrm[d];
-      add_probe_momentum<3>(ground_step_, at, fx[p].dp, about);
-    }
-  }
-
   // Obstacles' hold on their listed nodes (boundary.hpp obstacle_contact).
   void obstacle_pass(const GridView<S>& gv) {
     const long no = static_cast<long>(obstacles_.size());
@@ -696,15 +630,6 @@ class CpuRunner final : public Runner {
   std::vector<bool> contacts_;  // per stage: friction or a lifting gate (stage_has_contacts)
   std::vector<TerrainNode> terrain_;  // frictional terrain (empty: no terrain pass)
   double terrain_mu_ = 0;
-  std::vector<double> ground_field_;  // points at the terrain (empty: no ground pass)
-  GroundField ground_;
-  double ground_mu_ = -1;
-  bool ground_penalty_ = false;
-  int ground_part_ = -1;  // the terrain's force part (-1: no forces)
-  std::vector<GroundFix> ground_fix_;
-  std::vector<std::uint8_t> ground_hit_;
-  ForceSums ground_step_;
-  GroundStats ground_stats_;
   std::vector<ObstacleNode> obstacles_;  // obstacles' nodes (empty: no obstacle pass)
   std::vector<ForceProbe> probes_;       // boundary forces (empty: no force pass)
   std::vector<long> probe_ids_;          // per entry of probes_: its index in the set-up

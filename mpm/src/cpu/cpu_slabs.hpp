@@ -77,6 +77,7 @@ class SlabRunner final : public Runner {
     if (!probes_.empty()) {
       dp_.assign(static_cast<size_t>(D) * probes_.size(), 0.0);
       for (auto& s : slabs_) s->probe_momenta(dp_);
+      add_step_forces<D>(forces_, parts_, n_boundaries_, probes_, dp_, dt, step_sums_);
     }
     times_.grid += seconds_since(t0);
     t0 = Clock::now();
@@ -97,11 +98,6 @@ class SlabRunner final : public Runner {
     }
     if (want_dt_limit) r.dt_limit = lim;
     times_.g2p += seconds_since(t0);
-    if (!probes_.empty()) {  // after G2P: the terrain's points (slab after slab) join its nodes
-      ForceSums ground;
-      for (auto& s : slabs_) add_step_sums(ground, s->ground_step());
-      add_step_forces<D>(forces_, parts_, n_boundaries_, probes_, dp_, dt, step_sums_, ground_part(), &ground);
-    }
     ++times_.steps;
     if (!r.ok) return r;
     t0 = Clock::now();
@@ -133,23 +129,6 @@ class SlabRunner final : public Runner {
     return u;
   }
   void take_forces(BoundaryForces& out, bool keep) override { take_host_forces(forces_, out, keep); }
-  GroundStats take_ground() override {
-    GroundStats g;
-    for (auto& s : slabs_) {
-      const GroundStats q = s->take_ground();
-      g.points += q.points;
-      g.depth = std::max(g.depth, q.depth);
-    }
-    return g;
-  }
-  void restore_ground(const GroundStats& g) override {
-    for (size_t i = 0; i < slabs_.size(); ++i) slabs_[i]->restore_ground(i == 0 ? g : GroundStats{});
-  }
-  int ground_part() const {
-    for (size_t q = 0; q < parts_.size(); ++q)
-      if (su_.force_boundaries[parts_[q].boundary] == "terrain") return static_cast<int>(q);
-    return -1;
-  }
   void restore_forces(const BoundaryForces& in) override { restore_host_forces(forces_, in); }
   std::string device() const override {
     return slabs_[0]->device() + ", " + std::to_string(slabs_.size()) + " slabs along x";

@@ -16,7 +16,7 @@ namespace {
 
 constexpr char kMagic[8] = {'G', 'F', 'M', 'P', 'M', 'C', 'K', 'P'};
 constexpr std::uint32_t kVersion = 6;  // 2: the maps of terrain runs; 3: boundary forces; 4: gauges, per-material series;
-                                       // 5: the last sample's force sums; 6: points the terrain held
+                                       // 5: the last sample's force sums; 6: points below the terrain per deposit row
 constexpr std::uint32_t kByteOrder = 0x01020304;
 constexpr size_t kHeader = 8 + 4 + 4 + 8 + 8;
 
@@ -210,8 +210,6 @@ std::string encode_checkpoint(const Checkpoint& c) {
   w.pod(static_cast<std::uint64_t>(s.maps.deposit.size()));
   for (const DepositRow& r : s.maps.deposit)
     for (double v : {r.t, r.t_flow, r.area, r.volume, r.extent, r.ground_points, r.ground_depth}) w.pod(v);
-  w.pod(static_cast<std::int64_t>(s.maps.ground_pending.points));
-  w.pod(s.maps.ground_pending.depth);
   w.pod(static_cast<std::uint64_t>(s.forces.rows.size()));
   for (const ForceRow& r : s.forces.rows) {
     w.pod(r.t);
@@ -338,8 +336,7 @@ Checkpoint decode_checkpoint(std::string_view b) {
       *v = r.pod<double>();
     s.maps.deposit.push_back(row);
   }
-  s.maps.ground_pending.points = r.pod<std::int64_t>();
-  s.maps.ground_pending.depth = r.pod<double>();
+
   for (std::uint64_t k = 0, n = r.count(24 + kSumsBytes, "force rows"); k < n; ++k) {
     ForceRow row;
     row.t = r.pod<double>();

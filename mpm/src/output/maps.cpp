@@ -10,6 +10,8 @@
 #include <granflow/io/output.hpp>
 #include <granflow/io/raster.hpp>
 
+#include "scene/surface.hpp"
+
 namespace granflow::mpm {
 
 namespace {
@@ -29,7 +31,6 @@ double plan_z(const Frame& fr, long i) { return fr.dim == 3 ? fr.x[2 * fr.n + i]
 
 TerrainMaps::TerrainMaps(const SceneSetup& su) : su_(&su) {
   const Scene& sc = su.scene;
-  ground_columns_ = !su.ground_field.empty();
   if (sc.dim == 2 && sc.base) {  // a profile along the base: bins of output.map_cell (else h) from the grid's left edge
     profile_ = true;
     cellsize_ = sc.output.map_cell > 0 ? sc.output.map_cell : sc.h;
@@ -104,7 +105,25 @@ std::vector<double> TerrainMaps::thickness(const Frame& fr) const {
   return th;
 }
 
-void TerrainMaps::sample(double t, double t_flow, const Frame& fr, const GroundStats& ground) {
+// Points below the terrain (3D): their count and the largest depth along the ground's normal,
+// (b - y) cos of the slope at the point's plan position (the raster itself, not the grid).
+void TerrainMaps::below_ground(const Frame& fr, double& count, double& deepest) const {
+  count = deepest = 0;
+  const Terrain& tr = *su_->scene.terrain;
+  const detail::Surface ground(*tr.raster, tr.origin);
+  const long n = fr.n;
+  for (long i = 0; i < n; ++i) {
+    const double x = fr.x[i], y = fr.x[n + i], z = fr.x[2 * n + i];
+    const double b = ground.height(x, z);
+    if (!(y < b)) continue;
+    double nrm[3];
+    ground.normal(x, z, nrm);
+    count += 1;
+    deepest = std::max(deepest, (b - y) * -nrm[1]);
+  }
+}
+
+void TerrainMaps::sample(double t, double t_flow, const Frame& fr) {
   if (!active_) return;
   const std::vector<double> th = thickness(fr);
   const long n = fr.n;
@@ -136,8 +155,7 @@ void TerrainMaps::sample(double t, double t_flow, const Frame& fr, const GroundS
     hi = std::max(hi, along);
   }
   if (hi >= lo) row.extent = hi - lo + s;  // half a spacing beyond the outermost points each way
-  row.ground_points = static_cast<double>(ground.points);
-  row.ground_depth = ground.depth;
+  if (!profile_) below_ground(fr, row.ground_points, row.ground_depth);
   st_.deposit.push_back(row);
 }
 
@@ -219,10 +237,10 @@ void TerrainMaps::write_deposit_csv(const std::string& dir) const {
   std::ostringstream os;
   os.precision(8);
   os << (profile_ ? "t,t_flow,length,area,extent" : "t,t_flow,area,volume,extent")
-     << (ground_columns_ ? ",ground_points,ground_depth\n" : "\n");
+     << (profile_ ? "\n" : ",points_below_ground,max_depth_below_ground\n");
   for (const DepositRow& r : st_.deposit) {
     os << r.t << ',' << r.t_flow << ',' << r.area << ',' << r.volume << ',' << r.extent;
-    if (ground_columns_) os << ',' << r.ground_points << ',' << r.ground_depth;
+    if (!profile_) os << ',' << r.ground_points << ',' << r.ground_depth;
     os << '\n';
   }
   io::write_file(dir + "/deposit.csv", os.str(), io::Durability::Buffered);

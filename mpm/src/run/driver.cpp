@@ -128,7 +128,6 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     settle();
     runner.frame(fr, false, su.tracked);
     forces.sample(t, t - t_release, runner);
-    const GroundStats held = runner.take_ground();
     sum.series.push_back({t, t - t_release, stage, Measures{}});
     for (size_t k = 0; k < su.tracked.size(); ++k) {
       const long i = su.tracked[k], n = fr.n;
@@ -139,12 +138,12 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     last_good_t = t;
     const size_t row = sum.series.size() - 1;
     add_since(sum.host.samples, t0);
-    pending = std::async(std::launch::async, [&, row, t, held] {
+    pending = std::async(std::launch::async, [&, row, t] {
       const Measures m = measure(fr, su, mass);
       std::vector<Measures> per_material;
       if (sc.material_count() > 1)
         for (int k = 0; k < sc.material_count(); ++k) per_material.push_back(measure(fr, su, mass, k));
-      maps.sample(t, t - t_release, fr, held);
+      maps.sample(t, t - t_release, fr);
       for (const GaugeRow& g : measure_gauges(fr, su, mass, t, t - t_release)) sum.gauges.push_back(g);
       sum.series[row].m = m;
       // the worker appends in sample order: settle() precedes the next sample
@@ -219,7 +218,6 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     stats_before = ls.stats;
     wall_before = ls.wall_s;
     maps.restore(ls.maps);
-    runner.restore_ground(ls.maps.ground_pending);
     forces.restore(ls.forces, runner);
     sum.final = sum.series.back().m;
     runner.frame(fr, false, su.tracked);  // the current state; a sample at t would have given it
@@ -274,8 +272,6 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
     ls.stats = stats_before + runner.update_stats();
     ls.wall_s = wall_before + elapsed();
     ls.maps = maps.state();
-    ls.maps.ground_pending = runner.take_ground();
-    runner.restore_ground(ls.maps.ground_pending);
     ls.forces = forces.state(runner);
     write_checkpoint(ckpt_path, c);  // the series and index are rewritten on restart
     sum.checkpoint = ckpt_path;

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <cstdlib>
 #include <iterator>
 #include <limits>
 #include <string>
@@ -22,8 +21,14 @@ namespace {
 // a point on or above the ground can reach (quadratic stencils reach 1.5 h per axis; on a
 // slope |grad b| a node that far aside lies up to 1.5 h (1 + sqrt 2 |grad b|) below the
 // ground) go through the terrain pass with the ground's normal there; deeper nodes are held
-// whole by the masks. Returns the mask of the held nodes; lists the frictional ones in
-// su.terrain and, when `forces`, every node within a stencil's reach in ground_nodes.
+// whole by the masks. terrain.contact = "support" (the default) lists as well every node above
+// the ground whose shape function's support the ground cuts: its support reaches down to
+// y - h (linear hats) or y - 1.5 h (quadratic B-splines), not below the row of a level ground
+// where modified splines end; the node takes the contact law (Coulomb, or for no-slip ground
+// a stick while it moves into the ground) instead of moving freely with a cell that the ground
+// leaves part empty (issue 51: creep, sinking). Returns the mask of the held nodes; lists the
+// contact nodes in su.terrain and, when `forces`, every node within a stencil's reach in
+// ground_nodes.
 std::vector<std::uint8_t> terrain_nodes(const Scene& sc, SceneSetup& su, const Surface& ground, bool forces,
                                         double tol, std::vector<TerrainNode>& ground_nodes) {
   const int D = sc.dim;
@@ -31,55 +36,66 @@ std::vector<std::uint8_t> terrain_nodes(const Scene& sc, SceneSetup& su, const S
   const std::uint8_t all = static_cast<std::uint8_t>((1u << D) - 1);
   const bool frictional = sc.terrain->mu.has_value();
   const bool floored = std::any_of(sc.walls.begin(), sc.walls.end(), [](const Wall& w) { return w.axis == 1 && !w.at_max; });
+  const bool support = sc.terrain->contact == Terrain::Contact::Support;
   const int* nd = su.nodes.data();
+  auto ground_at_column = [&](int kx, int kz, double& xc, double& zc) {
+    xc = std::clamp(su.origin[0] + kx * sc.h, sc.origin[0], sc.origin[0] + sc.size[0]);
+    zc = std::clamp(su.origin[2] + kz * sc.h, sc.origin[2], sc.origin[2] + sc.size[2]);
+    return ground.height(xc, zc);
+  };
   double low = std::numeric_limits<double>::max(), high = -low;  // the ground's range over the footprint
-  const bool points = sc.terrain->contact != Terrain::Contact::Nodes;
-  const double lift = std::getenv("GRANFLOW_GROUND_LIFT") ? std::atof(std::getenv("GRANFLOW_GROUND_LIFT")) : 0.0;
-  if (points) su.ground_field.assign(4 * static_cast<size_t>(su.n_nodes), 0.0);
   for (int kz = 0; kz < nd[2]; ++kz)
     for (int kx = 0; kx < nd[0]; ++kx) {
-      const double x = su.origin[0] + kx * sc.h, z = su.origin[2] + kz * sc.h;
-      const double xc = std::clamp(x, sc.origin[0], sc.origin[0] + sc.size[0]);
-      const double zc = std::clamp(z, sc.origin[2], sc.origin[2] + sc.size[2]);
-      const double b = ground.height(xc, zc);
+      double xc, zc;
+      const double b = ground_at_column(kx, kz, xc, zc);
       low = std::min(low, b);
       high = std::max(high, b);
+    }
+  // A level ground is an axis-aligned floor: boundary-modified quadratic B-splines there, as at
+  // a y- wall at its height (any other terrain keeps truncated splines; docs/mpm_terrain.md).
+  const bool modified = sc.shape == ShapeKind::QuadraticBSpline && sc.modified_boundary_splines && high - low <= tol;
+  const int floor_row = static_cast<int>(std::floor((high - su.origin[1]) / sc.h + 1e-9));
+  const double reach = sc.shape == ShapeKind::Linear ? sc.h : 1.5 * sc.h;  // a shape's support below its node
+  double g2 = 0, most_into = -std::numeric_limits<double>::max();  // gravity's largest component into the ground
+  for (int d = 0; d < 3; ++d) g2 += sc.gravity[d] * sc.gravity[d];
+  for (int kz = 0; kz < nd[2]; ++kz)
+    for (int kx = 0; kx < nd[0]; ++kx) {
+      double xc, zc;
+      const double b = ground_at_column(kx, kz, xc, zc);
       if (!floored && b < sc.origin[1] - tol)
         fail("grid.origin", "the terrain at x = " + fmt(xc) + ", z = " + fmt(zc) + " (y = " + fmt(b) +
                                 ") lies below the grid (y from " + fmt(sc.origin[1]) +
                                 "): lower grid.origin[1] or raise terrain.origin[2]");
       double nrm[3] = {0, -1, 0};
-      const double slope = frictional || forces || points ? ground.normal(xc, zc, nrm) : 0.0;
-      if (points)  // signed distance along the normal: (y - b) cos(slope angle), exact for a plane
-        for (int ky = 0; ky < nd[1]; ++ky) {
-          const long I = kx + static_cast<long>(nd[0]) * (ky + static_cast<long>(nd[1]) * kz);
-          su.ground_field[I] = (su.origin[1] + ky * sc.h - b) * -nrm[1];
-          for (int d = 0; d < 3; ++d) su.ground_field[(1 + d) * su.n_nodes + I] = nrm[d];
-        }
+      const double slope = ground.normal(xc, zc, nrm);
+      most_into = std::max(most_into, sc.gravity[0] * nrm[0] + sc.gravity[1] * nrm[1] + sc.gravity[2] * nrm[2]);
       const double band = 2 * sc.h * (1 + std::sqrt(2.0) * slope);  // reach of a stencil (frictional ground, force probes)
       for (int ky = 0; ky < nd[1]; ++ky) {
         const double y = su.origin[1] + ky * sc.h;
-        if (y > b + tol + lift * sc.h) break;
+        const bool above = y > b + tol;
+        if (above) {
+          const double lowest = modified ? std::max(y - reach, su.origin[1] + floor_row * sc.h) : y - reach;
+          if (!support || !(lowest < b - tol)) break;
+        }
         const long I = kx + static_cast<long>(nd[0]) * (ky + static_cast<long>(nd[1]) * kz);
         if (forces && b - y <= band) ground_nodes.push_back({I, {nrm[0], nrm[1], nrm[2]}});
-        if (frictional && b - y <= band)
+        if (above || (frictional && b - y <= band))
           su.terrain.push_back({I, {nrm[0], nrm[1], nrm[2]}});
         else
           ground_mask[I] = all;
       }
     }
+  if (g2 > 0 && !(most_into > 1e-9 * std::sqrt(g2)))
+    fail("gravity", "is parallel to the terrain or points away from it everywhere (its largest component into the "
+                    "ground is " + fmt(most_into) + " m/s^2): nothing would hold the material on it");
   std::sort(su.terrain.begin(), su.terrain.end(), [](const TerrainNode& a, const TerrainNode& b) { return a.node < b.node; });
-  // A level ground is an axis-aligned floor: boundary-modified quadratic B-splines there, as at
-  // a y- wall at its height (any other terrain keeps truncated splines; docs/mpm_terrain.md).
-  if (sc.shape == ShapeKind::QuadraticBSpline && sc.modified_boundary_splines && high - low <= tol) {
+  if (modified) {
     AxisWalls& a = su.walls[1];
-    const int row = static_cast<int>(std::floor((high - su.origin[1]) / sc.h + 1e-9));
-    a.lo = a.has_lo ? std::max(a.lo, row) : row;
+    a.lo = a.has_lo ? std::max(a.lo, floor_row) : floor_row;
     a.has_lo = true;
   }
-  su.terrain_mu = frictional ? *sc.terrain->mu : 0.0;
-  su.ground_mu = frictional ? *sc.terrain->mu : -1.0;
-  su.ground_penalty = sc.terrain->contact == Terrain::Contact::Penalty;
+  // no-slip ground: the listed nodes above it stick while they move into it
+  su.terrain_mu = frictional ? *sc.terrain->mu : std::numeric_limits<double>::infinity();
   return ground_mask;
 }
 

@@ -534,10 +534,8 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
     terrain.file = t->string("file");
     terrain.origin = vec(*t, "origin", 3);
     if (t->has("mu")) terrain.mu = t->number("mu", Bounds::non_negative());  // absent: no-slip
-    const std::string contact = t->choice("contact", {"nodes", "points", "penalty"}, "nodes");
-    terrain.contact = contact == "points"    ? mpm::Terrain::Contact::Points
-                      : contact == "penalty" ? mpm::Terrain::Contact::Penalty
-                                             : mpm::Terrain::Contact::Nodes;
+    terrain.contact = t->choice("contact", {"support", "nodes"}, "support") == "nodes" ? mpm::Terrain::Contact::Nodes
+                                                                                    : mpm::Terrain::Contact::Support;
     try {
       terrain.raster = std::make_shared<const io::Raster>(read_raster(beside(path, terrain.file)));
     } catch (const InputError& e) {

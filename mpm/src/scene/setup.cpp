@@ -75,7 +75,7 @@ SceneSetup make_setup(const Scene& sc) {
     if (D != 3) fail("terrain", "needs grid.dim = 3 (a 2D scene takes its ground as base)");
     if (!t.raster) fail("terrain.file", "no raster was read");
     if (t.origin.size() != 3) fail("terrain.origin", "needs 3 components (easting, northing, elevation)");
-    if (t.mu && !(*t.mu >= 0)) fail("terrain.mu", "must be >= 0, got " + fmt(*t.mu));
+    if (t.mu && !(std::isfinite(*t.mu) && *t.mu >= 0)) fail("terrain.mu", "must be a finite number >= 0, got " + fmt(*t.mu));
     ground.emplace(*t.raster, t.origin);
     const std::string miss = ground->uncovered(sc.origin[0], sc.origin[0] + sc.size[0], sc.origin[2],
                                                sc.origin[2] + sc.size[2]);

@@ -15,8 +15,8 @@ namespace granflow::mpm {
 struct DepositRow {
   double t = 0, t_flow = 0;
   double area = 0, volume = 0, extent = 0;  // m^2, m^3, m
-  // terrain.contact = "points" or "penalty": the points held since the previous row (a point
-  // held in k steps counts k times) and the largest depth below the ground [m] among them.
+  // 3D: the points below the terrain at the sample and the deepest one's depth along the
+  // ground's normal [m] (0 and 0 when none is).
   double ground_points = 0, ground_depth = 0;
 };
 
@@ -24,7 +24,6 @@ struct DepositRow {
 struct MapsState {
   std::vector<double> max_speed, max_depth;  // window cells, row-major (empty: no maps)
   std::vector<DepositRow> deposit;
-  GroundStats ground_pending;  // points held since the last row (a checkpoint between samples)
 };
 
 class TerrainMaps {
@@ -39,7 +38,7 @@ class TerrainMaps {
   // the points whose plan position lies in the cell, over the cell's area.
   std::vector<double> thickness(const Frame& fr) const;
   // A sample at t: the maxima per cell, and a deposit row.
-  void sample(double t, double t_flow, const Frame& fr, const GroundStats& ground = {});
+  void sample(double t, double t_flow, const Frame& fr);
 
   // The maps of the final frame, in dir/maps/: deposit_thickness, max_speed, max_depth and the
   // terrain itself, as .asc (a .prj beside each where the terrain has a coordinate system) and,
@@ -59,9 +58,9 @@ class TerrainMaps {
 
  private:
   long cell_of(double x, double z) const;  // window index of a plan position (clamped)
+  void below_ground(const Frame& fr, double& count, double& deepest) const;
   double terrain_mean(long row, long col) const;  // mean elevation of a map cell's raster cells
   double cell_measure() const { return profile_ ? cellsize_ : cellsize_ * cellsize_; }  // m (2D), m^2
-  bool ground_columns_ = false;  // terrain.contact held points: deposit.csv's ground columns
   bool profile_ = false;  // 2D with [base]: one row of bins along x, deposit_profile.csv
   long block_ = 1, ncols_ = 0, nrows_ = 0;
   double cellsize_ = 0;

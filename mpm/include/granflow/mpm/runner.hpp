@@ -57,13 +57,6 @@ inline void restore_host_forces(BoundaryForces& sums, const BoundaryForces& in) 
     sums = in;
 }
 
-// Points the terrain held (Runner::take_ground): corrections summed over steps (a point held
-// in 3 steps counts 3 times) and the largest depth below the ground [m] before correction.
-struct GroundStats {
-  long points = 0;
-  double depth = 0;
-};
-
 struct SceneSetup {
   Scene scene;
   HostParticles particles;
@@ -80,12 +73,6 @@ struct SceneSetup {
   // nodes and no-slip terrain are held by the masks.
   std::vector<TerrainNode> terrain;
   double terrain_mu = 0;
-  // terrain.contact = "points" or "penalty": the ground on every node (boundary.hpp
-  // GroundField: signed distance, normal; 4 x n_nodes), empty otherwise; ground_mu: the
-  // points' Coulomb coefficient (-1: no-slip); ground_penalty: push out instead of put back.
-  std::vector<double> ground_field;
-  double ground_mu = -1;
-  bool ground_penalty = false;
   // Obstacles (docs/mpm_obstacles.md): the nodes inside each or on its surface, with the
   // normal of the nearest face, for the step's obstacle pass (runs only when non-empty).
   std::vector<ObstacleNode> obstacle_nodes;
@@ -303,10 +290,6 @@ class Runner {
   // zeroed unless `keep` (a checkpoint); restore_forces puts a checkpoint's sums back.
   virtual void take_forces(BoundaryForces& out, bool keep = false) { out = {}; (void)keep; }
   virtual void restore_forces(const BoundaryForces& in) { (void)in; }
-  // terrain.contact = "points" or "penalty": the points put back on (or pushed out of) the
-  // ground since the last take, and the deepest of them.
-  virtual GroundStats take_ground() { return {}; }
-  virtual void restore_ground(const GroundStats& g) { (void)g; }
   // The CPU twin always; CUDA with CudaOptions::update_stats (else empty).
   virtual UpdateStats update_stats() const { return {}; }
   virtual std::string device() const = 0;

@@ -75,14 +75,14 @@ struct BaseLine {
 // northing and elevation minus `origin` are the scene's x, z and y. Nodes on or below the
 // ground are held: no-slip, or (mu) Coulomb friction with the raster's own normal.
 struct Terrain {
-  // How points are kept out of the ground (docs/mpm_terrain.md, "Held nodes and contact"):
-  // Nodes: the held and listed nodes only; Points: also points below the ground put back on
-  // it; Penalty: also points below the ground pushed out.
-  enum class Contact { Nodes, Points, Penalty };
+  // Which nodes take the contact law (docs/mpm_terrain.md, "Held nodes and contact"): Support,
+  // also every node above the ground whose shape function's support the ground cuts; Nodes,
+  // the nodes on or below the ground only (before issue 51).
+  enum class Contact { Support, Nodes };
   std::string file;                            // as the scene gives it (messages)
   std::vector<double> origin = {0.0, 0.0, 0.0};  // easting, northing, elevation [m]
   std::optional<double> mu;                    // absent: no-slip
-  Contact contact = Contact::Nodes;
+  Contact contact = Contact::Support;
   std::shared_ptr<const io::Raster> raster;
 };
 
