@@ -368,6 +368,113 @@ TEST(TerrainContact, LayeredSlopeExampleSlidesOnItsWeakLayer) {
   std::filesystem::remove_all(dir);
 }
 
+// MPM-Geomechanics' terrain-contact verification (data/terrain_contact/SOURCES.md): a cube of 10
+// m, |g| = 10 m/s^2 at 45 deg to the ground, mu 0 and 0.3, one point near the leading bottom
+// corner (their (11.75, 6.75, 2.25), z up; ours (11.75, 2.25, 6.75), y up) followed for 2 s. Two
+// grounds: a level raster at y = 2 with gravity tilted 45 deg along x (their set-up), and a raster
+// dipping 45 deg along x with vertical gravity. Our law is granular: the flume set made strong
+// (phi_c 60 deg) and stiff (K0 x 10), a geostatic start and no settle (with mu 0 nothing holds a
+// block during a damped settle). Writes the point's and the centre of mass's displacement along
+// the ground, and the centre's rise off it (w_centre: its slump), every 0.05 s to GRANFLOW_EXTERNAL_OUT (scripts/plot_terrain_external.py draws it
+// with their CSVs and the closed form u = 1/2 g (sin 45 - mu cos 45) t^2).
+TEST(TerrainContact, ExternalSlidingBlock) {
+  const char* out = std::getenv("GRANFLOW_EXTERNAL_OUT");
+  if (!out) GTEST_SKIP() << "set GRANFLOW_EXTERNAL_OUT=file.csv";
+  std::ofstream csv(out);
+  csv << "ground,mu,t,u_point,u_centre,u_exact,w_centre\n";
+  const double g = 10.0, th = 45 * kDeg, c = std::cos(th);
+  for (const bool level : {true, false})
+    for (const double mu : {0.0, 0.3}) {
+      const double H = level ? 2.0 : 2.0 + 32.0;  // the ground at x = 0
+      auto ground = std::make_shared<io::Raster>();
+      ground->file = "memory";
+      ground->ncols = 40;
+      ground->nrows = 20;
+      ground->west = -2.0;
+      ground->south = -2.0;
+      ground->cellsize = 1.0;
+      for (long row = 0; row < ground->nrows; ++row)
+        for (long col = 0; col < ground->ncols; ++col)
+          ground->values.push_back(level ? 0.0 : -ground->centre_east(col));
+      Scene sc = test::tiny_column(ModelKind::Frictional);
+      sc.material = flume_scene(0.04, 1e-4, ModelKind::Frictional, ShapeKind::Linear, 0.1).material;
+      sc.material.params.f.phi_c = 60 * kDeg;
+      sc.material.params.f.K0 *= 10;
+      sc.dim = 3;
+      sc.origin = {0.0, 0.0, 0.0};
+      sc.size = level ? std::vector<double>{32.0, 16.0, 14.0} : std::vector<double>{32.0, 48.0, 14.0};
+      sc.h = 1.0;
+      sc.dt = 1e-3;
+      sc.ppc_axis = 2;
+      sc.initial.geostatic = true;
+      sc.gravity = level ? std::vector<double>{g * std::sin(th), -g * c, 0.0} : std::vector<double>{0.0, -g, 0.0};
+      sc.walls.clear();
+      sc.tracks.clear();
+      sc.runout_x.clear();
+      sc.runout_y.clear();
+      sc.output.times.clear();
+      Stage slide;
+      slide.name = "slide";
+      slide.duration = 2.0;
+      sc.stages = {slide};
+      Terrain t;
+      t.file = "memory";
+      t.origin = {0.0, 0.0, -H};
+      t.mu = mu;
+      t.raster = ground;
+      sc.terrain = t;
+      Body body;
+      if (level) {
+        body.box_min = {2.0, 2.0, 2.0};
+        body.box_max = {12.0, 12.0, 12.0};
+      } else {  // 10 m thick along the normal: 10 / cos 45 vertically
+        auto top = std::make_shared<io::Raster>(*ground);
+        for (double& v : top->values) v += 10.0 / c;
+        body.top = top;
+        body.plan_x = {2.0 * c, 12.0 * c, 12.0 * c, 2.0 * c};
+        body.plan_z = {2.0, 2.0, 12.0, 12.0};
+      }
+      sc.bodies = {body};
+      const SceneSetup su = make_setup(sc);
+      const long n = su.particles.n;
+      const std::vector<double> dir = level ? std::vector<double>{1.0, 0.0, 0.0} : std::vector<double>{c, -c, 0.0};
+      const std::vector<double> up = level ? std::vector<double>{0.0, 1.0, 0.0} : std::vector<double>{c, c, 0.0};
+      // the point: their leading bottom corner point; on the slope the lowest point of the
+      // leading column nearest z = 6.75
+      long pick = 0;
+      double best = 1e300;
+      for (long i = 0; i < n; ++i) {
+        const double x = su.particles.x[i], y = su.particles.x[n + i], z = su.particles.x[2 * n + i];
+        const double d = level ? std::hypot(x - 11.75, y - 2.25, z - 6.75)
+                               : std::hypot((x + y - (H - 0.0)) * 0 + (x - (12.0 * c - 0.25)), z - 6.75) + 1e-3 * (y - (H - x));
+        if (d < best) {
+          best = d;
+          pick = i;
+        }
+      }
+      std::vector<double> m = su.particles.m;
+      double M = 0, c0[3] = {0, 0, 0};
+      for (long i = 0; i < n; ++i) {
+        M += m[i];
+        for (int k = 0; k < 3; ++k) c0[k] += m[i] * su.particles.x[k * n + i];
+      }
+      run_sampled(su, 0.05, [&](const Frame& f, double tt, int) {
+        double u_point = 0, uc = 0, wc = 0;
+        for (int k = 0; k < 3; ++k) {
+          u_point += (f.x[k * n + pick] - su.particles.x[k * n + pick]) * dir[k];
+          double ck = 0;
+          for (long i = 0; i < n; ++i) ck += m[i] * f.x[k * n + i];
+          uc += (ck - c0[k]) / M * dir[k];
+          wc += (ck - c0[k]) / M * up[k];
+        }
+        csv << (level ? "level" : "slope") << ',' << mu << ',' << tt << ',' << u_point << ',' << uc << ','
+            << 0.5 * g * (std::sin(th) - mu * c) * tt * tt << ',' << wc << '\n';
+      });
+      std::printf("%s ground, mu %.1f: %ld points, the point at (%.2f, %.2f, %.2f)\n", level ? "level" : "45 deg", mu, n,
+                  su.particles.x[pick], su.particles.x[n + pick], su.particles.x[2 * n + pick]);
+    }
+}
+
 // The comparison of docs/mpm_terrain.md: GRANFLOW_CONTACT_MATRIX=1 runs it (minutes).
 TEST(TerrainContact, ComparisonMatrix) {
   if (!std::getenv("GRANFLOW_CONTACT_MATRIX")) GTEST_SKIP() << "set GRANFLOW_CONTACT_MATRIX=1";

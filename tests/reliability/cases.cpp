@@ -401,6 +401,10 @@ std::vector<Case> all_cases() {
       {"terrain_file_is_a_device", {{"t3.toml", edit(kTerrainScene, "file = \"dem.asc\"", "file = \"/dev/zero\"")}}, kT3, kInput, {"t3.toml:15", "'terrain.file'", "/dev/zero: not a regular file"}},
       {"output_map_cell_too_many_bins", {{"scene.toml", kScene + "map_cell = 1e-9\n[base]\nx = [0.0, 0.2]\ny = [0.0, 0.0]\n"}}, kMpm, kInput, {"scene.toml:22", "'output.map_cell'", "map cells of 1e-09 m give 2e+08 cells", "at most 10000000 are allowed"}},
       {"terrain_material_below_ground", {{"t3.toml", edit(kTerrainScene, "min = [0.02, 0.04, 0.02]", "min = [0.02, 0.0, 0.02]")}, {"dem.asc", dem()}}, kT3, kInput, {"t3.toml:14", "'terrain'", "lies on or below the terrain (ground at y = 0.02"}},
+      {"terrain_mu_nan", {{"t3.toml", edit(kTerrainScene, "mu = 0.3\n", "mu = nan\n")}, {"dem.asc", dem()}}, kT3, kInput, {"t3.toml:17", "'terrain.mu'"}},
+      {"terrain_mu_infinite", {{"t3.toml", edit(kTerrainScene, "mu = 0.3\n", "mu = inf\n")}, {"dem.asc", dem()}}, kT3, kInput, {"t3.toml:17", "'terrain.mu'"}},
+      {"terrain_gravity_parallel_to_ground", {{"t3.toml", edit(kTerrainScene, "[material]\n", "[solver]\ngravity = [9.81, 0.0, 0.0]\n[material]\n")}, {"dem.asc", dem()}}, kT3, kInput, {"t3.toml:12", "'solver.gravity'", "parallel to the terrain"}},
+      {"terrain_contact_unknown", {{"t3.toml", edit(kTerrainScene, "mu = 0.3\n", "mu = 0.3\ncontact = \"points\"\n")}, {"dem.asc", dem()}}, kT3, kInput, {"t3.toml:18", "'terrain.contact'", "support"}},
       {"terrain_in_2d_scene", {{"scene.toml", kScene + "[terrain]\nfile = \"dem.asc\"\norigin = [0.0, 0.0, 0.0]\n"}, {"dem.asc", dem()}}, kMpm, kInput, {"scene.toml:23", "'terrain.file'", "terrain needs grid.dim = 3", "[base]"}},
       // ---- obstacles ([[obstacle]], docs/mpm_obstacles.md) ------------------------------------------
       {"obstacle_thinner_than_two_cells", {{"scene.toml", kScene + "[[obstacle]]\nkind = \"box\"\nmin = [0.14, 0.0]\nmax = [0.16, 0.06]\n"}}, kMpm, kInput, {"scene.toml:25", "'obstacle[0].max'", "0.02 m thick at its narrowest, less than two grid cells (2 h = 0.04 m)"}},

@@ -86,7 +86,7 @@ std::vector<std::uint8_t> terrain_nodes(const Scene& sc, SceneSetup& su, const S
       }
     }
   if (g2 > 0 && !(most_into > 1e-9 * std::sqrt(g2)))
-    fail("gravity", "is parallel to the terrain or points away from it everywhere (its largest component into the "
+    fail("solver.gravity", "is parallel to the terrain or points away from it everywhere (its largest component into the "
                     "ground is " + fmt(most_into) + " m/s^2): nothing would hold the material on it");
   std::sort(su.terrain.begin(), su.terrain.end(), [](const TerrainNode& a, const TerrainNode& b) { return a.node < b.node; });
   if (modified) {

@@ -388,7 +388,10 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
                            "(pic_speed = 0 turns the rate off)");
     sc.volumetric_averaging = s->boolean_or("volumetric_averaging", false);
     mpm::parse_precision(s->choice("precision", {"fp64", "mixed", "fp32"}, "fp64"), sc.precision);
-    if (s->has("gravity")) sc.gravity = vec(*s, "gravity", D);
+    if (s->has("gravity")) {
+      sc.gravity = vec(*s, "gravity", D);
+      note(*s, "gravity");
+    }
     s->finish();
   }
   if (sc.gravity.empty()) {
