@@ -16,6 +16,7 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <utility>
 
 #include <granflow/io/input_error.hpp>
 #include <granflow/io/raster.hpp>
@@ -341,18 +342,17 @@ TEST(Terrain, BlockOnATiltedRasterSlidesCiSized) {
   EXPECT_LT(std::fabs(stuck), 0.25 * coulomb);
 }
 
-// What the staircase costs at a sloping ground: a layer of normal thickness T = 0.1 m on a raster
-// dipping 20 deg along x (a slab 4 cm wide between free-slip walls in z, plane strain), no-slip,
-// consolidated from zero stress for 0.2 s with local damping; quadratic B-splines, truncated at
-// the ground. In the middle third, the normal stress per layer of points against rho g (T - d)
-// cos theta at each point's normal distance d from the ground (rho from its void ratio) is
-// printed (docs/mpm_terrain.md); the bottom layer is far off. Checked: no point sank more than a
-// quarter spacing into the ground (measured 0.5 mm, 0.05 spacings), and the layer's weight is
-// carried (the mean over its depth within 25 %; measured +15.5 %).
-TEST(Terrain, LayerOnA20DegreeSlopeCarriesItsWeight) {
-  const double theta = 20 * kDeg, tn = std::tan(theta), T = 0.1;
+namespace {
+// The layer test for one ground: dipping theta (20 deg), or level (0) `off` above a node row.
+// Returns the bottom layer's error and that over the depth; prints the table.
+struct LayerResult {
+  double bottom = 0, depth = 0, lowest = 0;
+};
+LayerResult layer_on_ground(double theta_deg, double off) {
+  const double theta = theta_deg * kDeg, tn = std::tan(theta), T = 0.1;
   auto ground = raster(-0.05, -0.05, 0.05, 14, 3, [&](double e, double) { return -tn * e; });
-  Scene sc = terrain_scene({0.6, 0.36, 0.04}, 0.02, ground, {0.0, 0.0, -(0.02 + 0.6 * tn)}, std::nullopt);
+  const double base = 0.02 + off;  // the ground at x = 0.6
+  Scene sc = terrain_scene({0.6, 0.36, 0.04}, 0.02, ground, {0.0, 0.0, -(base + 0.6 * tn)}, std::nullopt);
   sc.shape = ShapeKind::QuadraticBSpline;  // as the 3D slab
   sc.transfer = Scene::Transfer::TaylorPic;
   sc.flip = 0.0;
@@ -368,14 +368,14 @@ TEST(Terrain, LayerOnA20DegreeSlopeCarriesItsWeight) {
   sc.stages[0].duration = 0.2;
   sc.stages[0].damping = 0.5;
   const SceneSetup su = make_setup(sc);
-  EXPECT_TRUE(su.walls[2].has_lo);   // modified splines at the z walls,
-  EXPECT_FALSE(su.walls[1].has_lo);  // truncated at the sloping ground
+  EXPECT_TRUE(su.walls[2].has_lo);                 // modified splines at the z walls,
+  EXPECT_EQ(su.walls[1].has_lo, theta_deg == 0);   // at a level ground too, truncated at a sloping one
   auto r = make_cpu_runner(su);
   r->set_stage(0, 0.5, sc.flip);
   Span span;
   span.dt = sc.dt;
   span.max_steps = std::lround(0.2 / sc.dt);
-  ASSERT_TRUE(r->advance_span(span).ok);
+  EXPECT_TRUE(r->advance_span(span).ok);
   Frame f;
   r->frame(f, true);
   const double nx = -std::sin(theta), ny = -std::cos(theta), rho_p = sc.material.params.c.rho_p;
@@ -384,7 +384,7 @@ TEST(Terrain, LayerOnA20DegreeSlopeCarriesItsWeight) {
   double lowest = 1e9;
   for (long i = 0; i < f.n; ++i) {
     const double x = f.x[i], y = f.x[f.n + i];
-    const double d = (y - (0.02 + tn * (0.6 - x))) * std::cos(theta);  // normal distance from the ground
+    const double d = (y - (base + tn * (0.6 - x))) * std::cos(theta);  // normal distance from the ground
     lowest = std::min(lowest, d);
     if (x < 0.2167 || x > 0.3833) continue;
     const int k = std::clamp(static_cast<int>(d / su.spacing), 0, layers);
@@ -393,7 +393,8 @@ TEST(Terrain, LayerOnA20DegreeSlopeCarriesItsWeight) {
     count[k] += 1;
   }
   double m_all = 0, e_all = 0;
-  std::printf("layer T = 0.1 m on a 20 deg raster, 0.2 s damped, middle third: normal stress per layer of points\n");
+  std::printf("layer T = 0.1 m, ground %.0f deg, %.3f m above a node row, 0.2 s damped, middle third: normal stress per layer\n",
+              theta_deg, off);
   for (int k = 0; k <= layers; ++k) {
     if (count[k] == 0) continue;
     m_all += measured[k];
@@ -402,9 +403,29 @@ TEST(Terrain, LayerOnA20DegreeSlopeCarriesItsWeight) {
                 k, k + 1, count[k], measured[k] / count[k], expected[k] / count[k], 100 * (measured[k] / expected[k] - 1));
   }
   std::printf("  over the depth: %+.1f %%; lowest point %.2e m above the ground\n", 100 * (m_all / e_all - 1), lowest);
-  ASSERT_GT(count[0], 10);
-  EXPECT_GT(lowest, -0.25 * su.spacing);  // held at nodes: points sink into the ground by a fraction of a cell at most
-  EXPECT_NEAR(m_all / e_all, 1.0, 0.25);
+  EXPECT_GT(count[0], 10);
+  LayerResult out;
+  out.bottom = count[0] > 0 ? measured[0] / expected[0] - 1 : 0;
+  out.depth = m_all / e_all - 1;
+  out.lowest = lowest / su.spacing;
+  return out;
+}
+}  // namespace
+
+// What the staircase costs (docs/mpm_terrain.md, "The base stress"): a layer of normal thickness
+// T = 0.1 m on a no-slip raster (a 4 cm slab between free-slip z walls), quadratic B-splines,
+// consolidated from zero stress for 0.2 s with local damping: dipping 20 deg along x (truncated
+// splines at the ground), and level half a cell above a node row (modified splines at the row
+// below it). The normal stress per layer of points in the middle third against rho g (T - d)
+// cos theta is printed. Checked, with the cut-support contact: no point below the ground by a
+// tenth of a spacing (measured: none below), the weight over the depth carried within 25 %
+// (20 deg: -20.8 %). The bottom layer is not yet right (20 deg: -85 %, it keeps its zero start).
+TEST(Terrain, LayerOnA20DegreeSlopeCarriesItsWeight) {
+  for (const auto& [theta, off] : {std::pair{20.0, 0.0}, std::pair{0.0, 0.01}}) {
+    const LayerResult r = layer_on_ground(theta, off);
+    EXPECT_GT(r.lowest, -0.1);
+    EXPECT_NEAR(r.depth, 0.0, 0.25);
+  }
 }
 
 // Several materials on frictional terrain (3D kMembers kernels with the terrain pass): two slabs
