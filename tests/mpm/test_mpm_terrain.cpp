@@ -307,7 +307,7 @@ TEST(Terrain, BlockOnATiltedRasterSlidesAtTheCoulombRate) {
   const double exact = kG * (std::sin(theta) - 0.2 * std::cos(theta));
   std::printf("  g (sin - mu cos) = %.4f m/s^2 (%.2f %%)\n", exact, 100 * (rate / exact - 1));
   EXPECT_NEAR(rate, exact, 0.02 * exact);
-  EXPECT_LT(stuck, 0.1 * sliding);
+  EXPECT_LT(stuck, 0.01 * sliding);  // 1.5e-7 m against 89 mm (nodes-only contact: 5.3 mm)
 }
 
 // The slide above, CI-sized for the sanitizer stage (tests/plain_only.txt): settled for 0.05 s,
