@@ -27,6 +27,7 @@
 
 #include "one_thread.hpp"
 #include "sampled_run.hpp"
+#include "terrain_scene.hpp"
 #include "tiny_column.hpp"
 #include "test_constants.hpp"
 
@@ -97,35 +98,6 @@ double fitted_rate(const Motion& mo, double t0, double t1) {
     n += 1;
   }
   return (n * stv - st * sv) / (n * stt - st * st);
-}
-
-// A 3D scene of the frictional flume material on a grid of `size` from the origin, one stage,
-// no walls, the terrain raster given (georeferenced at `origin`).
-Scene terrain_scene(const std::vector<double>& size, double h, std::shared_ptr<const io::Raster> ground,
-                    std::vector<double> origin, std::optional<double> mu) {
-  Scene sc = test::tiny_column(ModelKind::Frictional);
-  sc.material = flume_scene(0.04, 1e-4, ModelKind::Frictional, ShapeKind::Linear, 0.1).material;
-  sc.dim = 3;
-  sc.origin = {0.0, 0.0, 0.0};
-  sc.size = size;
-  sc.h = h;
-  sc.gravity = {0.0, -kG, 0.0};
-  sc.walls.clear();
-  sc.tracks.clear();
-  sc.runout_x.clear();
-  sc.runout_y.clear();
-  sc.output.times.clear();
-  Stage s;
-  s.name = "slide";
-  s.duration = 0.3;
-  sc.stages = {s};
-  Terrain t;
-  t.file = ground->file;
-  t.origin = std::move(origin);
-  t.mu = mu;
-  t.raster = std::move(ground);
-  sc.terrain = t;
-  return sc;
 }
 
 // A body between the terrain and the surface `thick` above it, over the square plan [a, b]^2.

@@ -25,6 +25,7 @@
 #include <granflow/mpm/scene.hpp>
 
 #include "sampled_run.hpp"
+#include "terrain_scene.hpp"
 #include "test_constants.hpp"
 #include "tiny_column.hpp"
 
@@ -85,42 +86,22 @@ SlideResult run_slide(const Slide& c) {
   const double Ly = std::ceil((H + c.thick / std::max(0.5, std::cos(th)) + 0.04) / c.h) * c.h;
   auto ground = plane(-0.1, -0.1, 0.05, static_cast<long>((std::max(Lx, Lz) + 0.3) / 0.05), tn * dx, tn * dz);
 
-  Scene sc = test::tiny_column(ModelKind::Frictional);
-  sc.material = flume_scene(0.04, 1e-4, ModelKind::Frictional, ShapeKind::Linear, 0.1).material;
+  Scene sc = terrain_scene({Lx, Ly, Lz}, c.h, ground, {0.0, 0.0, -H}, c.mu);
   sc.material.params.f.phi_c = c.phi_c_deg * kDeg;
-  sc.dim = 3;
-  sc.origin = {0.0, 0.0, 0.0};
-  sc.size = {Lx, Ly, Lz};
-  sc.h = c.h;
   sc.dt = 1e-4 * std::min(1.0, c.h / 0.01);
   sc.shape = c.shape;
   sc.ppc_axis = 2;
   sc.initial.geostatic = true;
-  sc.walls.clear();
-  sc.tracks.clear();
-  sc.runout_x.clear();
-  sc.runout_y.clear();
-  sc.output.times.clear();
   const std::vector<double> dip = c.level ? std::vector<double>{dx, 0.0, dz}
                                           : std::vector<double>{std::cos(th) * dx, -std::sin(th), std::cos(th) * dz};
-  if (c.level)
-    sc.gravity = {kG * std::sin(th) * dx, -kG * std::cos(th), kG * std::sin(th) * dz};
-  else
-    sc.gravity = {0.0, -kG, 0.0};
-  Stage settle, slide;
+  if (c.level) sc.gravity = {kG * std::sin(th) * dx, -kG * std::cos(th), kG * std::sin(th) * dz};
+  Stage settle = sc.stages[0];
   settle.name = "settle";
   settle.duration = c.settle;
   settle.damping = 0.5;
-  slide.name = "slide";
-  slide.duration = c.free;
-  sc.stages = {settle, slide};
-  Terrain t;
-  t.file = "memory";
-  t.origin = {0.0, 0.0, -H};
-  t.mu = c.mu;
-  t.contact = c.contact;
-  t.raster = ground;
-  sc.terrain = t;
+  sc.stages[0].duration = c.free;
+  sc.stages.insert(sc.stages.begin(), settle);
+  sc.terrain->contact = c.contact;
   const double a0 = margin + (dx < 0 ? travel * std::fabs(dx) : 0.0), b0 = margin + (dz < 0 ? travel * std::fabs(dz) : 0.0);
   Body body;
   body.top = plane(-0.1, -0.1, 0.05, ground->ncols, tn * dx, tn * dz);
@@ -287,28 +268,8 @@ TEST(TerrainContact, SlideHoldsCiSized) {
 TEST(TerrainContact, DepositRowsCountThePointsBelowTheGround) {
   const double th = 30 * kDeg, tn = std::tan(th);
   auto ground = plane(-0.1, -0.1, 0.05, 12, tn, 0.0);
-  Scene sc = test::tiny_column(ModelKind::Frictional);
-  sc.material = flume_scene(0.04, 1e-4, ModelKind::Frictional, ShapeKind::Linear, 0.1).material;
-  sc.dim = 3;
-  sc.origin = {0.0, 0.0, 0.0};
-  sc.size = {0.2, 0.2, 0.1};
-  sc.h = 0.02;
-  sc.gravity = {0.0, -kG, 0.0};
-  Stage rest;
-  rest.name = "rest";
-  rest.duration = 0.01;
-  sc.stages = {rest};
-  sc.walls.clear();
-  sc.tracks.clear();
-  sc.runout_x.clear();
-  sc.runout_y.clear();
-  sc.output.times.clear();
-  Terrain t;
-  t.file = "memory";
-  t.origin = {0.0, 0.0, -0.15};
-  t.mu = 0.3;
-  t.raster = ground;
-  sc.terrain = t;
+  Scene sc = terrain_scene({0.2, 0.2, 0.1}, 0.02, ground, {0.0, 0.0, -0.15}, 0.3);
+  sc.stages[0].duration = 0.01;
   Body b;
   b.box_min = {0.08, 0.14, 0.04};
   b.box_max = {0.12, 0.18, 0.06};
@@ -407,33 +368,15 @@ TEST(TerrainContact, ExternalSlidingBlock) {
       for (long row = 0; row < ground->nrows; ++row)
         for (long col = 0; col < ground->ncols; ++col)
           ground->values.push_back(level ? 0.0 : -ground->centre_east(col));
-      Scene sc = test::tiny_column(ModelKind::Frictional);
-      sc.material = flume_scene(0.04, 1e-4, ModelKind::Frictional, ShapeKind::Linear, 0.1).material;
+      Scene sc = terrain_scene(level ? std::vector<double>{32.0, 16.0, 14.0} : std::vector<double>{32.0, 48.0, 14.0}, 1.0,
+                               ground, {0.0, 0.0, -H}, mu);
       sc.material.params.f.phi_c = 60 * kDeg;
       sc.material.params.f.K0 *= 10;
-      sc.dim = 3;
-      sc.origin = {0.0, 0.0, 0.0};
-      sc.size = level ? std::vector<double>{32.0, 16.0, 14.0} : std::vector<double>{32.0, 48.0, 14.0};
-      sc.h = 1.0;
       sc.dt = 1e-3;
       sc.ppc_axis = 2;
       sc.initial.geostatic = true;
       sc.gravity = level ? std::vector<double>{g * std::sin(th), -g * c, 0.0} : std::vector<double>{0.0, -g, 0.0};
-      sc.walls.clear();
-      sc.tracks.clear();
-      sc.runout_x.clear();
-      sc.runout_y.clear();
-      sc.output.times.clear();
-      Stage slide;
-      slide.name = "slide";
-      slide.duration = 2.0;
-      sc.stages = {slide};
-      Terrain t;
-      t.file = "memory";
-      t.origin = {0.0, 0.0, -H};
-      t.mu = mu;
-      t.raster = ground;
-      sc.terrain = t;
+      sc.stages[0].duration = 2.0;
       Body body;
       if (level) {
         body.box_min = {2.0, 2.0, 2.0};
