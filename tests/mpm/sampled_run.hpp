@@ -67,4 +67,18 @@ inline Motion mean_motion(const SceneSetup& su, const std::vector<double>& dir, 
   return out;
 }
 
+// Least-squares slope of v(t) over t0 <= t <= t1.
+inline double fitted_rate(const Motion& mo, double t0, double t1) {
+  double st = 0, sv = 0, stt = 0, stv = 0, n = 0;
+  for (size_t k = 0; k < mo.t.size(); ++k) {
+    if (mo.t[k] < t0 - 1e-9 || mo.t[k] > t1 + 1e-9) continue;
+    st += mo.t[k];
+    sv += mo.v[k];
+    stt += mo.t[k] * mo.t[k];
+    stv += mo.t[k] * mo.v[k];
+    n += 1;
+  }
+  return (n * stv - st * sv) / (n * stt - st * st);
+}
+
 }  // namespace granflow::mpm::test

@@ -336,7 +336,6 @@ Checkpoint decode_checkpoint(std::string_view b) {
       *v = r.pod<double>();
     s.maps.deposit.push_back(row);
   }
-
   for (std::uint64_t k = 0, n = r.count(24 + kSumsBytes, "force rows"); k < n; ++k) {
     ForceRow row;
     row.t = r.pod<double>();

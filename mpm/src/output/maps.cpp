@@ -236,8 +236,8 @@ void TerrainMaps::write_deposit_csv(const std::string& dir) const {
   if (!active_) return;
   std::ostringstream os;
   os.precision(8);
-  os << (profile_ ? "t,t_flow,length,area,extent" : "t,t_flow,area,volume,extent")
-     << (profile_ ? "\n" : ",points_below_ground,max_depth_below_ground\n");
+  os << (profile_ ? "t,t_flow,length,area,extent\n"
+                   : "t,t_flow,area,volume,extent,points_below_ground,max_depth_below_ground\n");
   for (const DepositRow& r : st_.deposit) {
     os << r.t << ',' << r.t_flow << ',' << r.area << ',' << r.volume << ',' << r.extent;
     if (!profile_) os << ',' << r.ground_points << ',' << r.ground_depth;
