@@ -11,12 +11,14 @@ Axes: shape; h [mm]; phi_c [deg] (the flume set, frictional model); initial stre
 along x, a raster dipping 30 deg along x with vertical gravity, or a frictional y- wall with the
 tilted gravity. 8 points per cell, dt 1e-4 s (5e-5 at 5 mm). Writes one scene per cell, runs
 granflow mpm on it, and appends a row to OUT/matrix.csv: the cell, ran (1/0), the time reached,
-the message of a stopped run, wall seconds.
+the message of a stopped run, wall seconds, and the steps the cap at the stable step shortened
+(time.cap_to_stable; "time.dt: N steps shortened" in granflow's output) with the shortest.
 """
 import argparse
 import csv
 import math
 import os
+import re
 import subprocess
 import time
 
@@ -30,6 +32,7 @@ p.add_argument("--init", nargs="+", default=["zero", "geostatic"])
 p.add_argument("--ground", nargs="+", default=["level", "slope", "wall"])
 p.add_argument("--backend", default="cpu")
 p.add_argument("--duration", type=float, default=0.3)
+p.add_argument("--offset", type=float, default=0.013, help="the raster ground's height above a node row [m]")
 p.add_argument("--timeout", type=float, default=1800)
 p.add_argument("--set", action="append", default=[], help="more --set KEY=VALUE for every run (e.g. terrain.contact=nodes)")
 a = p.parse_args()
@@ -56,7 +59,7 @@ def scene(h, shape, phi, init, ground):
     dt = 1e-4 if h >= 10 else 5e-5
     tilted = ground != "slope"
     grav = [G * math.sin(TH), -G * math.cos(TH), 0.0] if tilted else [0.0, -G, 0.0]
-    off = 0.013  # the ground off the node rows (raster grounds)
+    off = a.offset  # the ground off the node rows (raster grounds)
     lines = [f'name = "stability {name}"', "[grid]", "dim = 3", "origin = [0.0, 0.0, 0.0]"]
     if ground == "slope":
         H = off + math.tan(TH) * (SX + 0.05) + 2 * hm
@@ -92,7 +95,8 @@ new = not os.path.exists(rows_path)
 with open(rows_path, "a", newline="") as f:
     w = csv.writer(f)
     if new:
-        w.writerow(["shape", "h_mm", "phi_c_deg", "initial", "ground", "ran", "t_reached", "message", "wall_s"])
+        w.writerow(["shape", "h_mm", "phi_c_deg", "initial", "ground", "ran", "t_reached", "message", "wall_s",
+                    "shortened", "dt_min_s"])
     for h in a.h:
         for shape in a.shape:
             for phi in a.phi:
@@ -123,6 +127,8 @@ with open(rows_path, "a", newline="") as f:
                         msg = ""
                         if rc != 0:
                             msg = next((l.strip() for l in out.splitlines() if "bad" in l or "error" in l.lower()), out.strip()[-200:])
-                        w.writerow([shape, h, phi, init, ground, int(rc == 0), f"{t_end:g}", msg, f"{wall:.1f}"])
+                        m = re.search(r"time.dt: (\d+) steps shortened.*the shortest ([0-9.e+-]+) s", out)
+                        short, dt_min = (m.group(1), m.group(2)) if m else ("0", "")
+                        w.writerow([shape, h, phi, init, ground, int(rc == 0), f"{t_end:g}", msg, f"{wall:.1f}", short, dt_min])
                         f.flush()
                         print(f"{name}: {'ran' if rc == 0 else 'STOPPED'} t {t_end:g} s ({wall:.1f} s) {msg[:160]}", flush=True)

@@ -61,7 +61,7 @@ StepParams<D, S, Model> step_params(const SceneSetup& su) {
   for (double m : su.particles.m) mmin = std::min(mmin, m);
   sp.mass_eps = S(1e-8 * mmin);
   sp.mass_floor = S(su.scene.light_node_mass * mmin);
-  sp.cfl = S(su.scene.cfl);
+  sp.cfl = S(su.scene.step_cfl());
   sp.want_dt_limit = 0;
   sp.vol_avg = su.scene.volumetric_averaging ? 1 : 0;
   sp.t = 0;

@@ -33,6 +33,8 @@ struct SpanControl {
   unsigned long long bad;  // pack_bad of the first bad particle, kNoBadParticle: none
   unsigned long long lim;  // dt_limit_bits of the smallest stable step of the current step
   unsigned long long deferred;  // split G2P: points of the span's steps that needed the plastic pass
+  long long limited;       // steps planned below dt_max by the stable limit (SpanResult)
+  double dt_min;           // the smallest of those
   unsigned int blocks_done;
   // Ensembles: per member, pack_bad of its first bad particle since the last
   // retire_failed_members (kNoBadParticle: none); null for single runs. Last, so that the
@@ -99,7 +101,13 @@ __device__ __forceinline__ void finish_step(SpanControl* ctl, double lim, int wa
     c.active = 0;
   } else {
     c.t = __dadd_rn(c.t, c.h);
-    if (c.adaptive) c.dt = span_next_dt(dt_limit_value(lb), c.dt_max);
+    if (c.adaptive) {
+      c.dt = span_next_dt(dt_limit_value(lb), c.dt_max);
+      if (c.dt < c.dt_max) {
+        c.limited += 1;
+        c.dt_min = c.dt < c.dt_min ? c.dt : c.dt_min;
+      }
+    }
     if (span_reached(c.t, c.t_until) || c.steps >= c.max_steps)
       c.active = 0;
     else
@@ -171,6 +179,7 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::span_start(cons
   c.h = span_step_size(s.t, s.dt, s.t_land);
   c.bad = kNoBadParticle;
   c.lim = dt_limit_bits(1e300);
+  c.dt_min = std::numeric_limits<double>::infinity();
   if constexpr (kMembers) c.member_bad = member_bad_;
   check(cudaMemcpyAsync(ctl_, ctl_in_, sizeof c, cudaMemcpyHostToDevice, stream_), "span start");
 }
@@ -192,6 +201,8 @@ inline SpanResult CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::span_resu
   r.t = o.t;
   r.dt = o.dt;
   r.h_last = o.h_last;
+  r.limited = static_cast<long>(o.limited);
+  r.dt_min = o.dt_min;
   if (o.bad != kNoBadParticle) {
     r.ok = false;
     r.particle = static_cast<long>(o.bad >> 32);

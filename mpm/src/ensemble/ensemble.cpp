@@ -203,7 +203,7 @@ EnsembleSummary run_ensemble(const SceneSetup& su, const std::vector<SceneSetup>
       Span span;
       span.t = t;
       span.dt = dt;
-      span.adaptive = sc.adaptive;
+      span.adaptive = sc.adaptive;  // no cap_to_stable: a member's steps must not depend on the others'
       span.dt_max = sc.dt;
       span.t_land = next_event;
       span.t_until = t_until;

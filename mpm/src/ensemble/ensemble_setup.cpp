@@ -47,7 +47,7 @@ SceneSetup make_ensemble_setup(const std::vector<SceneSetup>& members) {
     require(s.shape == s0.shape && s.modified_boundary_splines == s0.modified_boundary_splines, k, "solver.shape",
             "the shape functions");
     require(s.precision == s0.precision, k, "solver.precision", "the precision");
-    require(s.dt == s0.dt && s.adaptive == s0.adaptive && s.cfl == s0.cfl, k, "time", "the time stepping");
+    require(s.dt == s0.dt && s.adaptive == s0.adaptive && s.cfl == s0.cfl && s.cap_to_stable == s0.cap_to_stable, k, "time", "the time stepping");
     require(s.flip == s0.flip && s.pic_speed == s0.pic_speed && s.transfer == s0.transfer &&
                 s.volumetric_averaging == s0.volumetric_averaging,
             k, "solver", "the transfer scheme");

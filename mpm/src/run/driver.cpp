@@ -23,6 +23,10 @@
 namespace granflow::mpm {
 namespace {
 
+// A stable step below this fraction of the at-rest P-wave step is a blow-up, not a stiff
+// material (impacts lower it to about a third: issue 52's slide into a wall).
+constexpr double kCollapsedStep = 1e-3;
+
 std::string stage_name(const Scene& sc, int i) { return sc.stages[i].name.empty() ? "stage" + std::to_string(i) : sc.stages[i].name; }
 
 }  // namespace
@@ -301,13 +305,15 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
       Span span;
       span.t = t;
       span.dt = dt;
-      span.adaptive = sc.adaptive;
+      span.adaptive = sc.limited_steps();
       span.dt_max = sc.dt;  // adaptive: the scene's dt is the largest step
       span.t_land = next_event;
       span.t_until = t_until;
       span.max_steps = span_length(span, std::max(1L, opt.max_span));
       const SpanResult r = runner.advance_span(span);
       step += r.steps;
+      sum.limited_steps += r.limited;
+      sum.dt_min = std::min(sum.dt_min, r.dt_min);
       at.step = step;
       at.t = r.t;
       if (!r.ok) {
@@ -329,6 +335,34 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
       }
       t = r.t;
       dt = r.dt;
+      if (sc.limited_steps() && dt < kCollapsedStep * su.dt_estimate) {
+        // The stable step collapsed: a point's speed or stiffness ran away (a blow-up that
+        // the next steps would only crawl through). Stop, naming the fastest point.
+        settle();
+        Frame bad;
+        runner.frame(bad, false);
+        const long n = bad.n;
+        long fast = 0;
+        double v2max = -1;
+        for (long i = 0; i < n; ++i) {
+          double v2 = 0;
+          for (int d = 0; d < bad.dim; ++d) v2 += bad.v[d * n + i] * bad.v[d * n + i];
+          if (v2 > v2max) v2max = v2, fast = i;
+        }
+        std::ostringstream os;
+        os << "the stable step fell to " << dt << " s (the at-rest P-wave step is " << su.dt_estimate
+           << " s) at step " << step << " (t = " << t << " s, stage '" << stage_name(sc, si)
+           << "'): a blown-up velocity field; the fastest point, particle " << fast << " at (" << bad.x[fast]
+           << ", " << bad.x[n + fast];
+        if (bad.dim == 3) os << ", " << bad.x[2 * n + fast];
+        os << ") m, moves at " << std::sqrt(v2max) << " m/s; the last good frame (t = " << last_good_t
+           << " s) was written";
+        sum.ok = false;
+        sum.message = os.str();
+        write_frame(last_good, last_good_t, "_last_good");
+        stop = true;
+        break;
+      }
       if (t >= next_sample - 1e-12) {
         sample(t, si);
         next_sample += sc.output.series_dt;
@@ -422,18 +456,18 @@ BenchResult bench(const SceneSetup& su, Runner& r, const BenchOptions& o) {
     long done = 0;
     if (per_step) {
       for (; done < n; ++done) {
-        const StepResult s = r.step(dt, sc.adaptive);
+        const StepResult s = r.step(dt, sc.limited_steps());
         if (!s.ok)
           throw std::runtime_error("benchmark step " + std::to_string(done + 1) + " failed at particle " +
                                    std::to_string(s.particle) + ": " + status_field(s.status));
-        if (sc.adaptive) dt = span_next_dt(s.dt_limit, sc.dt);
+        if (sc.limited_steps()) dt = span_next_dt(s.dt_limit, sc.dt);
       }
       return done;
     }
     Span sp;
     sp.max_steps = n;
     sp.dt = dt;
-    sp.adaptive = sc.adaptive;
+    sp.adaptive = sc.limited_steps();
     sp.dt_max = sc.dt;
     sp.timing = timing;
     const SpanResult s = r.advance_span(sp);

@@ -374,6 +374,7 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
   sc.dt = time.number("dt", Bounds::positive());
   sc.adaptive = time.boolean_or("adaptive", false);
   sc.cfl = time.number_or("cfl", 0.5, Bounds{0.0, 1.0, true, false});
+  sc.cap_to_stable = time.boolean_or("cap_to_stable", true);
   note(time, "dt");
   time.finish();
 

@@ -3,6 +3,7 @@
 
 #include <csignal>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -45,6 +46,8 @@ struct RunSummary {
   long steps = 0;
   double t_end = 0;
   double wall_s = 0;
+  long limited_steps = 0;  // steps the stable limit shortened below time.dt (since the start or resume)
+  double dt_min = std::numeric_limits<double>::infinity();  // the shortest of those
   Measures final;
   std::vector<SeriesRow> series;
   std::vector<TrackRow> tracks;

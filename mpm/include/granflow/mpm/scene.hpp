@@ -249,6 +249,14 @@ struct Scene {
   double dt = 0;         // fixed step, or the first/maximum step when adaptive
   bool adaptive = false;
   double cfl = 0.5;
+  // A fixed step is shortened to the stable step at CFL 1 (P-wave plus particle speed, and the
+  // viscous limit) wherever that falls below it: the step time.dt gets past the set-up check
+  // (the at-rest column) but flowing or impacting material can outrun (issue 52's 2D slide).
+  bool cap_to_stable = true;
+  // The steps follow the stable limit: adaptive, or a capped fixed step.
+  bool limited_steps() const { return adaptive || cap_to_stable; }
+  // The Courant number of that limit: time.cfl when adaptive, 1 for the cap of a fixed step.
+  double step_cfl() const { return adaptive ? cfl : 1.0; }
 
   // Material 0: the scene's single [material], or its first [[material]] table; the others
   // follow in other_materials (material i > 0 is other_materials[i - 1]). One model for all.
