@@ -432,6 +432,7 @@ std::vector<Case> all_cases() {
       // ---- --set and --params over the scene (granflow mpm, bench mpm) ------------------------------
       {"mpm_set_unknown_key", {}, mpm_with({"--set", "grid.hh=0.01"}), kInput, {"scene.toml: --set 'grid.hh=0.01': unknown key 'grid.hh'", "allowed here"}},
       {"mpm_set_wrong_type", {}, mpm_with({"--set", "time.dt=fast"}), kInput, {"scene.toml: --set 'time.dt=fast': 'time.dt': expected a number, got a string"}},
+      {"mpm_set_cap_not_boolean", {}, mpm_with({"--set", "time.cap_to_stable=1"}), kInput, {"scene.toml: --set 'time.cap_to_stable=1': 'time.cap_to_stable': expected true or false, got an integer"}},
       {"mpm_set_no_value", {}, mpm_with({"--set", "grid.h"}), kInput, {"scene.toml: --set 'grid.h': expected KEY=VALUE"}},
       {"mpm_set_no_such_stage", {}, mpm_with({"--set", "stage[1].duration=1"}), kInput, {"--set 'stage[1].duration=1'", "the scene has 1 [[stage]] table (stage[0] to stage[0])"}},
       {"mpm_set_dt_above_stability_limit", {}, mpm_with({"--set", "time.dt=1e-2"}), kInput, {"scene.toml: --set 'time.dt=1e-2': 'time.dt'", "above the stability limit"}},
