@@ -18,6 +18,7 @@
 #include <granflow/mpm/checkpoint.hpp>
 #include <granflow/mpm/driver.hpp>
 
+#include "forwarding_runner.hpp"
 #include "one_thread.hpp"
 
 using namespace granflow;
@@ -148,12 +149,12 @@ fs::path scratch(const std::string& name) {
 
 // Forwards to a runner and raises the interrupt flag after a given number of steps: a
 // signal arriving at a chosen step, deterministically.
-class InterruptAfter final : public Runner {
+class InterruptAfter final : public test::ForwardingRunner {
  public:
-  InterruptAfter(Runner& r, long steps, volatile std::sig_atomic_t& flag) : r_(r), left_(steps), flag_(flag) {}
-  void set_stage(int s, double d, double f) override { r_.set_stage(s, d, f); }
+  InterruptAfter(Runner& r, long steps, volatile std::sig_atomic_t& flag)
+      : ForwardingRunner(r), left_(steps), flag_(flag) {}
   StepResult step(double dt, bool lim) override {
-    const StepResult s = r_.step(dt, lim);
+    const StepResult s = ForwardingRunner::step(dt, lim);
     if (--left_ == 0) flag_ = SIGINT;
     return s;
   }
@@ -163,18 +164,8 @@ class InterruptAfter final : public Runner {
     if (left_ > 0 && left_ < t.max_steps) t.max_steps = left_;
     return Runner::advance_span(t);
   }
-  void frame(Frame& o, bool d, const std::vector<long>& sub) override { r_.frame(o, d, sub); }
-  void download(HostParticles& o) override { r_.download(o); }
-  void upload(const HostParticles& i) override { r_.upload(i); }
-  PhaseTimes times() const override { return r_.times(); }
-  void reset_times() override { r_.reset_times(); }
-  UpdateStats update_stats() const override { return r_.update_stats(); }
-  std::string device() const override { return r_.device(); }
-  long particles() const override { return r_.particles(); }
-  long nodes() const override { return r_.nodes(); }
 
  private:
-  Runner& r_;
   long left_;
   volatile std::sig_atomic_t& flag_;
 };

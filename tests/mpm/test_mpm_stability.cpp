@@ -16,6 +16,7 @@
 #include <granflow/mpm/scene.hpp>
 #include <granflow/mpm/scene_file.hpp>
 
+#include "forwarding_runner.hpp"
 #include "terrain_scene.hpp"
 #include "test_constants.hpp"
 #include "tiny_column.hpp"
@@ -38,6 +39,19 @@ struct Release {
   double block = 0.10, thick = 0.04;  // the 10 x 10 x 4 cm; CI-sized at 5 mm: 5 x 5 x 2 cm
   double duration = 0.07;             // past the stops (t = 0.021-0.053 s)
 };
+
+// Rows 3 and 4's release at 5 mm (phi_c 50, mu 0.7), CI-sized: a 5 x 5 x 2 cm block, as many
+// cells as the 10 mm one, for 0.05 s.
+Release fine_release() {
+  Release c;
+  c.h = 0.005;
+  c.phi_c_deg = 50;
+  c.mu = 0.7;
+  c.block = 0.05;
+  c.thick = 0.02;
+  c.duration = 0.05;
+  return c;
+}
 
 RunSummary run_release(const Release& c) {
   const double th = 30 * kDeg, ph = c.plan_deg * kDeg;
@@ -148,29 +162,17 @@ TEST(Stability, ReleaseWithPhiC60RunsToItsEnd) {
 }
 
 // Row 3: 5 mm, phi_c 50, geostatic, mu 0.7, the raster dipping 45 deg in plan, dt 1e-4 s
-// (t = 0.021-0.045 s); CI-sized: a 5 x 5 x 2 cm block, as many cells as the 10 mm one.
+// (t = 0.021-0.045 s).
 TEST(Stability, FineReleaseWithMu07On45DegreePlanRunsToItsEnd) {
-  Release c;
-  c.h = 0.005;
-  c.phi_c_deg = 50;
-  c.mu = 0.7;
+  Release c = fine_release();
   c.plan_deg = 45;
-  c.block = 0.05;
-  c.thick = 0.02;
-  c.duration = 0.05;
   expect_runs_to_its_end(c);
 }
 
 // Row 4: as row 3 with dt 5e-5 s (t = 0.040 s), or with a zero initial stress (t = 0.034 s).
 TEST(Stability, FineReleaseWithAHalfStepOrZeroStressRunsToItsEnd) {
   for (bool geostatic : {true, false}) {
-    Release c;
-    c.h = 0.005;
-    c.phi_c_deg = 50;
-    c.mu = 0.7;
-    c.block = 0.05;
-    c.thick = 0.02;
-    c.duration = 0.05;
+    Release c = fine_release();
     c.dt = geostatic ? 5e-5 : 1e-4;
     c.geostatic = geostatic;
     expect_runs_to_its_end(c);
@@ -223,12 +225,7 @@ TEST(Stability, CapBindsOnlyWhereTheStepOutrunsTheMaterial) {
     ASSERT_EQ(fa.e[i], fb.e[i]) << i;
   }
 
-  Release c;
-  c.h = 0.005;
-  c.phi_c_deg = 50;
-  c.mu = 0.7;
-  c.block = 0.05;
-  c.thick = 0.02;
+  Release c = fine_release();
   c.duration = 0.005;
   const RunSummary s = run_release(c);
   ASSERT_TRUE(s.ok) << s.message;
@@ -241,27 +238,16 @@ namespace {
 
 // Forwards to a runner; from step `at` on, its stable step is reported 1e4 times shorter: a
 // point's speed running away, as a blown-up velocity field makes it.
-class CollapsingLimit final : public Runner {
+class CollapsingLimit final : public ForwardingRunner {
  public:
-  CollapsingLimit(Runner& r, long at) : r_(r), left_(at) {}
-  void set_stage(int s, double d, double f) override { r_.set_stage(s, d, f); }
+  CollapsingLimit(Runner& r, long at) : ForwardingRunner(r), left_(at) {}
   StepResult step(double dt, bool lim) override {
-    StepResult s = r_.step(dt, lim);
+    StepResult s = ForwardingRunner::step(dt, lim);
     if (--left_ <= 0) s.dt_limit *= 1e-4;
     return s;
   }
-  void frame(Frame& o, bool d, const std::vector<long>& sub) override { r_.frame(o, d, sub); }
-  void download(HostParticles& o) override { r_.download(o); }
-  void upload(const HostParticles& i) override { r_.upload(i); }
-  PhaseTimes times() const override { return r_.times(); }
-  void reset_times() override { r_.reset_times(); }
-  UpdateStats update_stats() const override { return r_.update_stats(); }
-  std::string device() const override { return r_.device(); }
-  long particles() const override { return r_.particles(); }
-  long nodes() const override { return r_.nodes(); }
 
  private:
-  Runner& r_;
   long left_;
 };
 

@@ -27,6 +27,28 @@ namespace {
 // material (impacts lower it to about a third: issue 52's slide into a wall).
 constexpr double kCollapsedStep = 1e-3;
 
+// "(x, y)" or "(x, y, z)" of point p of a frame.
+std::string point_at(const Frame& f, long p) {
+  std::ostringstream os;
+  os << "(" << f.x[p];
+  for (int d = 1; d < f.dim; ++d) os << ", " << f.x[d * f.n + p];
+  os << ")";
+  return os.str();
+}
+
+// The point of a frame that moves fastest, and its speed.
+long fastest_point(const Frame& f, double& speed) {
+  long fast = 0;
+  double v2max = 0;
+  for (long i = 0; i < f.n; ++i) {
+    double v2 = 0;
+    for (int d = 0; d < f.dim; ++d) v2 += f.v[d * f.n + i] * f.v[d * f.n + i];
+    if (v2 > v2max) v2max = v2, fast = i;
+  }
+  speed = std::sqrt(v2max);
+  return fast;
+}
+
 std::string stage_name(const Scene& sc, int i) { return sc.stages[i].name.empty() ? "stage" + std::to_string(i) : sc.stages[i].name; }
 
 }  // namespace
@@ -316,17 +338,27 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
       sum.dt_min = std::min(sum.dt_min, r.dt_min);
       at.step = step;
       at.t = r.t;
-      if (!r.ok) {
+      // The stable step collapsed: a point's speed or stiffness ran away, a blow-up that the
+      // next steps would only crawl through.
+      const bool collapsed = r.ok && sc.limited_steps() && r.dt < kCollapsedStep * su.dt_estimate;
+      if (!r.ok || collapsed) {
         settle();
-        Frame bad;
-        runner.frame(bad, false);
-        const long n = bad.n, p = r.particle;
+        Frame now;
+        runner.frame(now, false);
         std::ostringstream os;
-        os << "particle " << p << " at (" << bad.x[p] << ", " << bad.x[n + p];
-        if (bad.dim == 3) os << ", " << bad.x[2 * n + p];
-        os << ") m: bad " << status_field(r.status) << " at step " << step << " (t = " << r.t + r.h_last
-           << " s, stage '" << stage_name(sc, si) << "'); the last good frame (t = " << last_good_t
-           << " s) was written";
+        if (!r.ok) {
+          os << "particle " << r.particle << " at " << point_at(now, r.particle) << " m: bad " << status_field(r.status)
+             << " at step " << step << " (t = " << r.t + r.h_last << " s, stage '" << stage_name(sc, si) << "')";
+        } else {
+          t = r.t;
+          double speed = 0;
+          const long fast = fastest_point(now, speed);
+          os << "the stable step fell to " << r.dt << " s (the at-rest P-wave step is " << su.dt_estimate
+             << " s) at step " << step << " (t = " << t << " s, stage '" << stage_name(sc, si)
+             << "'): a blown-up velocity field; the fastest point, particle " << fast << " at " << point_at(now, fast)
+             << " m, moves at " << speed << " m/s";
+        }
+        os << "; the last good frame (t = " << last_good_t << " s) was written";
         sum.ok = false;
         sum.message = os.str();
         write_frame(last_good, last_good_t, "_last_good");
@@ -335,34 +367,6 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
       }
       t = r.t;
       dt = r.dt;
-      if (sc.limited_steps() && dt < kCollapsedStep * su.dt_estimate) {
-        // The stable step collapsed: a point's speed or stiffness ran away (a blow-up that
-        // the next steps would only crawl through). Stop, naming the fastest point.
-        settle();
-        Frame bad;
-        runner.frame(bad, false);
-        const long n = bad.n;
-        long fast = 0;
-        double v2max = -1;
-        for (long i = 0; i < n; ++i) {
-          double v2 = 0;
-          for (int d = 0; d < bad.dim; ++d) v2 += bad.v[d * n + i] * bad.v[d * n + i];
-          if (v2 > v2max) v2max = v2, fast = i;
-        }
-        std::ostringstream os;
-        os << "the stable step fell to " << dt << " s (the at-rest P-wave step is " << su.dt_estimate
-           << " s) at step " << step << " (t = " << t << " s, stage '" << stage_name(sc, si)
-           << "'): a blown-up velocity field; the fastest point, particle " << fast << " at (" << bad.x[fast]
-           << ", " << bad.x[n + fast];
-        if (bad.dim == 3) os << ", " << bad.x[2 * n + fast];
-        os << ") m, moves at " << std::sqrt(v2max) << " m/s; the last good frame (t = " << last_good_t
-           << " s) was written";
-        sum.ok = false;
-        sum.message = os.str();
-        write_frame(last_good, last_good_t, "_last_good");
-        stop = true;
-        break;
-      }
       if (t >= next_sample - 1e-12) {
         sample(t, si);
         next_sample += sc.output.series_dt;
