@@ -104,6 +104,11 @@ Checkpoint sample_checkpoint(long n, int dim) {
     s.maps.max_speed = {0.5, 1.25, 0.0};
     s.maps.max_depth = {0.01, 0.2, 0.0};
     s.maps.deposit = {{0.0, -0.1, 0.0064, 3.84e-4, 0.08}, {0.01, -0.09, 0.0048, 3.8e-4, 0.09}};
+    s.maps.deposit[1].ground_points = 3;
+    s.maps.deposit[1].ground_depth = 2e-3;
+    s.maps.deposit[1].edge_radius = 0.21;  // format version 7
+    s.maps.deposit[1].edge_axes = 0.23;
+    s.maps.deposit[1].edge_diagonals = 0.19;
   }
   return c;
 }

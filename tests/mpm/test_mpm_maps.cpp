@@ -18,6 +18,7 @@
 #include <granflow/mpm/checkpoint.hpp>
 #include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/maps.hpp>
+#include <granflow/mpm/scene_file.hpp>
 
 #include "tiny_column.hpp"
 
@@ -462,4 +463,84 @@ TEST(MpmOutputFields, FramesCarryTheListedArraysOnly) {
     }
     EXPECT_NE(b.find("Name=\"position\""), std::string::npos);
   }
+}
+
+// The deposit's edge about a centre on a synthetic map (issue 53): a thickness T0 (1 - r / R) on a
+// lattice of cells crosses one spacing s at R (1 - s / T0) exactly, wherever the centre lies
+// against the cells (on a corner, inside a cell, a quarter map from its corner); 0 when the map
+// is thin at the centre, NaN when it never thins within the map.
+TEST(TerrainMaps, DepositEdgeOfAConeIsWhereItsThicknessCrossesOneSpacing) {
+  const double w = 0.01, T0 = 0.1, R = 0.3, s = 0.025;
+  const double expected = R * (1 - s / T0);
+  struct Case {
+    double x0, z0, lo;  // centre, and the map's lower corner in both directions
+  };
+  for (const Case c : {Case{0.5, 0.5, 0.0}, Case{0.503, 0.4971, 0.0}, Case{0.0, 0.0, 0.0}, Case{0.013, -0.002, 0.0}}) {
+    std::vector<double> cx, cz, th, thin, thick;
+    for (int i = 0; i < 100; ++i)
+      for (int j = 0; j < 100; ++j) {
+        cx.push_back(c.lo + (i + 0.5) * w);
+        cz.push_back(c.lo + (j + 0.5) * w);
+        const double r = std::hypot(cx.back() - c.x0, cz.back() - c.z0);
+        th.push_back(std::max(0.0, T0 * (1 - r / R)));
+        thin.push_back(0.5 * s);
+        thick.push_back(2 * s);
+      }
+    EXPECT_NEAR(deposit_edge_radius(cx, cz, th, c.x0, c.z0, w, s), expected, 1e-12) << c.x0 << " " << c.z0;
+    for (EdgeSector k : {EdgeSector::Axes, EdgeSector::Diagonals})
+      EXPECT_NEAR(deposit_edge_radius(cx, cz, th, c.x0, c.z0, w, s, k), expected, 1e-12) << c.x0 << " " << c.z0;
+    EXPECT_EQ(deposit_edge_radius(cx, cz, thin, c.x0, c.z0, w, s), 0.0);
+    EXPECT_TRUE(std::isnan(deposit_edge_radius(cx, cz, thick, c.x0, c.z0, w, s)));
+  }
+}
+
+// The sectors read the grid's anisotropy: a cone whose radius is R along the axes and 0.8 R along
+// the diagonals (R cos^2 2phi + 0.8 R sin^2 2phi, the angle phi about the centre) gives the two
+// apart, with the all-direction edge between them.
+TEST(TerrainMaps, DepositEdgeSectorsSeparateTheAxesFromTheDiagonals) {
+  const double w = 0.005, T0 = 0.1, R = 0.3, s = 0.01;
+  std::vector<double> cx, cz, th;
+  for (int i = 0; i < 100; ++i)
+    for (int j = 0; j < 100; ++j) {
+      cx.push_back((i + 0.5) * w);
+      cz.push_back((j + 0.5) * w);
+      const double phi = std::atan2(cz.back(), cx.back()), c2 = std::cos(2 * phi);
+      const double reach = R * (c2 * c2 + 0.8 * (1 - c2 * c2));
+      th.push_back(std::max(0.0, T0 * (1 - std::hypot(cx.back(), cz.back()) / reach)));
+    }
+  const double axes = deposit_edge_radius(cx, cz, th, 0, 0, w, s, EdgeSector::Axes);
+  const double diag = deposit_edge_radius(cx, cz, th, 0, 0, w, s, EdgeSector::Diagonals);
+  const double all = deposit_edge_radius(cx, cz, th, 0, 0, w, s);
+  EXPECT_GT(axes, 0.96 * 0.9 * R);  // within 15 deg of an axis the reach is at least 0.95 R
+  EXPECT_LT(diag, 0.86 * 0.9 * R);  // within 15 deg of a diagonal at most 0.85 R
+  EXPECT_LT(diag, all);
+  EXPECT_LT(all, axes);
+}
+
+// The CI-sized axisymmetric collapse (mpm/scenes/cylinder_collapse_ci.toml, issue 53): a quarter
+// cylinder R0 = H0 = 0.1 m at R0/h = 5 spreads alike along the grid's axes and its diagonals (the
+// deposit's edge in the two sectors within 5 %), beyond R0, and the edge over all directions
+// lies between the sectors' within a point spacing.
+TEST(TerrainMaps, CylinderCollapseCiSpreadsAlikeAlongTheAxesAndTheDiagonals) {
+  const Scratch s("cylinder");
+  const SceneSetup su = make_setup_for_file(load_scene(GRANFLOW_SOURCE_DIR "/mpm/scenes/cylinder_collapse_ci.toml"));
+  const RunSummary r = run_to(su, s.dir);
+  ASSERT_TRUE(r.ok) << r.message;
+  std::istringstream in(read_text(s.dir / "deposit.csv"));
+  std::string line, last;
+  std::getline(in, line);
+  ASSERT_EQ(line, "t,t_flow,area,volume,extent,points_below_ground,max_depth_below_ground,edge_radius,"
+                  "edge_radius_axes,edge_radius_diagonals");
+  while (std::getline(in, line)) last = line;
+  std::vector<double> row;
+  std::istringstream ls(last);
+  for (std::string cell; std::getline(ls, cell, ',');) row.push_back(std::stod(cell));
+  ASSERT_EQ(row.size(), 10u) << last;
+  const double all = row[7], axes = row[8], diag = row[9];
+  std::printf("edge at t = %g s: %.4f m (axes %.4f, diagonals %.4f: %+.1f %%)\n", row[0], all, axes, diag,
+              100 * (diag / axes - 1));
+  EXPECT_GT(all, 1.5 * 0.1);
+  EXPECT_NEAR(diag, axes, 0.05 * axes);
+  EXPECT_GT(all, std::min(axes, diag) - su.spacing);
+  EXPECT_LT(all, std::max(axes, diag) + su.spacing);
 }

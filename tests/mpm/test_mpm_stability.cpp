@@ -200,8 +200,9 @@ TEST(Stability, SlideIntoAWallRunsToItsEndWithTheCapAndStopsWithoutIt) {
 TEST(Stability, CapBindsOnlyWhereTheStepOutrunsTheMaterial) {
   Scene sc = tiny_column(ModelKind::PhaseTransition);
   sc.dt = 5e-5;
-  sc.stages[1].duration = 0.1;
-  sc.output.times = {0.1};
+  sc.stages[0].duration = 0.02;
+  sc.stages[1].duration = 0.05;
+  sc.output.times = {0.05};
   RunSummary a, b;
   Frame fa, fb;
   for (bool cap : {true, false}) {
@@ -261,7 +262,7 @@ TEST(Stability, CollapsedStableStepStopsTheRunNamingTheFastestPoint) {
     sc.adaptive = adaptive;
     const SceneSetup su = make_setup(sc);
     auto inner = make_cpu_runner(su);
-    CollapsingLimit r(*inner, 400);
+    CollapsingLimit r(*inner, 100);
     RunOptions opt;
     opt.progress = false;
     const RunSummary s = run(su, r, opt);
@@ -269,7 +270,7 @@ TEST(Stability, CollapsedStableStepStopsTheRunNamingTheFastestPoint) {
     EXPECT_EQ(s.message.rfind("the stable step fell to ", 0), 0u) << s.message;
     EXPECT_NE(s.message.find("the fastest point, particle "), std::string::npos) << s.message;
     EXPECT_LT(s.t_end, 0.1);
-    EXPECT_LE(s.steps, 400 + 200) << "it stops within the span that collapsed";
+    EXPECT_LE(s.steps, 100 + 200) << "it stops within the span that collapsed";
     std::printf("%s\n", s.message.c_str());
   }
 }

@@ -15,8 +15,9 @@ namespace granflow::mpm {
 namespace {
 
 constexpr char kMagic[8] = {'G', 'F', 'M', 'P', 'M', 'C', 'K', 'P'};
-constexpr std::uint32_t kVersion = 6;  // 2: the maps of terrain runs; 3: boundary forces; 4: gauges, per-material series;
-                                       // 5: the last sample's force sums; 6: points below the terrain per deposit row
+constexpr std::uint32_t kVersion = 7;  // 2: the maps of terrain runs; 3: boundary forces; 4: gauges, per-material series;
+                                       // 5: the last sample's force sums; 6: points below the terrain per deposit row;
+                                       // 7: the deposit's edge radius per deposit row
 constexpr std::uint32_t kByteOrder = 0x01020304;
 constexpr size_t kHeader = 8 + 4 + 4 + 8 + 8;
 
@@ -209,7 +210,9 @@ std::string encode_checkpoint(const Checkpoint& c) {
   w.doubles(s.maps.max_depth);
   w.pod(static_cast<std::uint64_t>(s.maps.deposit.size()));
   for (const DepositRow& r : s.maps.deposit)
-    for (double v : {r.t, r.t_flow, r.area, r.volume, r.extent, r.ground_points, r.ground_depth}) w.pod(v);
+    for (double v : {r.t, r.t_flow, r.area, r.volume, r.extent, r.ground_points, r.ground_depth, r.edge_radius, r.edge_axes,
+                     r.edge_diagonals})
+      w.pod(v);
   w.pod(static_cast<std::uint64_t>(s.forces.rows.size()));
   for (const ForceRow& r : s.forces.rows) {
     w.pod(r.t);
@@ -330,9 +333,10 @@ Checkpoint decode_checkpoint(std::string_view b) {
   s.maps.max_speed = r.doubles("maps.max_speed");
   s.maps.max_depth = r.doubles("maps.max_depth");
   if (s.maps.max_speed.size() != s.maps.max_depth.size()) Reader::fail("the maps have different cell counts");
-  for (std::uint64_t k = 0, n = r.count(56, "deposit series"); k < n; ++k) {
+  for (std::uint64_t k = 0, n = r.count(80, "deposit series"); k < n; ++k) {
     DepositRow row;
-    for (double* v : {&row.t, &row.t_flow, &row.area, &row.volume, &row.extent, &row.ground_points, &row.ground_depth})
+    for (double* v : {&row.t, &row.t_flow, &row.area, &row.volume, &row.extent, &row.ground_points, &row.ground_depth,
+                      &row.edge_radius, &row.edge_axes, &row.edge_diagonals})
       *v = r.pod<double>();
     s.maps.deposit.push_back(row);
   }

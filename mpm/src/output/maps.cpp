@@ -29,6 +29,35 @@ double plan_z(const Frame& fr, long i) { return fr.dim == 3 ? fr.x[2 * fr.n + i]
 
 }  // namespace
 
+double deposit_edge_radius(const std::vector<double>& cx, const std::vector<double>& cz, const std::vector<double>& th,
+                           double x0, double z0, double width, double threshold, EdgeSector sector) {
+  std::vector<double> sum_r, sum_t, count;
+  for (size_t c = 0; c < th.size(); ++c) {
+    const double r = std::hypot(cx[c] - x0, cz[c] - z0);
+    if (sector != EdgeSector::All) {
+      const double deg = std::atan2(std::fabs(cz[c] - z0), std::fabs(cx[c] - x0)) * (180 / 3.14159265358979323846);
+      const bool axes = deg <= 15 || deg >= 75, diagonals = std::fabs(deg - 45) <= 15;
+      if (sector == EdgeSector::Axes ? !axes : !diagonals) continue;
+    }
+    const size_t k = static_cast<size_t>(r / width);
+    if (k >= count.size()) sum_r.resize(k + 1), sum_t.resize(k + 1), count.resize(k + 1);
+    sum_r[k] += r;
+    sum_t[k] += th[c];
+    count[k] += 1;
+  }
+  double r_in = 0, t_in = 0;
+  bool first = true;
+  for (size_t k = 0; k < count.size(); ++k) {
+    if (count[k] == 0) continue;
+    const double r = sum_r[k] / count[k], t = sum_t[k] / count[k];
+    if (t < threshold) return first ? 0.0 : r_in + (r - r_in) * (t_in - threshold) / (t_in - t);
+    first = false;
+    r_in = r;
+    t_in = t;
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
 TerrainMaps::TerrainMaps(const SceneSetup& su) : su_(&su) {
   const Scene& sc = su.scene;
   if (sc.dim == 2 && sc.base) {  // a profile along the base: bins of output.map_cell (else h) from the grid's left edge
@@ -74,6 +103,11 @@ TerrainMaps::TerrainMaps(const SceneSetup& su) : su_(&su) {
     }
   }
   const size_t cells = static_cast<size_t>((row1 - row0 + 1) * (col1 - col0 + 1));
+  for (long row = row0; row <= row1; ++row)  // the window cells' plan centres in grid coordinates
+    for (long col = col0; col <= col1; ++col) {
+      cell_x_.push_back(r.west + (double(col) + 0.5) * cs - east0_);
+      cell_z_.push_back(r.south + (double(nrows_ - 1 - row) + 0.5) * cs - north0_);
+    }
   st_.max_speed.assign(cells, 0.0);
   st_.max_depth.assign(cells, 0.0);
   active_ = true;
@@ -156,6 +190,14 @@ void TerrainMaps::sample(double t, double t_flow, const Frame& fr) {
   }
   if (hi >= lo) row.extent = hi - lo + s;  // half a spacing beyond the outermost points each way
   if (!profile_) below_ground(fr, row.ground_points, row.ground_depth);
+  const std::vector<double>& centre = su_->scene.output.deposit_centre;
+  if (!profile_ && centre.size() == 2)
+  {
+    row.edge_radius = deposit_edge_radius(cell_x_, cell_z_, th, centre[0], centre[1], cellsize_, s);
+    row.edge_axes = deposit_edge_radius(cell_x_, cell_z_, th, centre[0], centre[1], cellsize_, s, EdgeSector::Axes);
+    row.edge_diagonals =
+        deposit_edge_radius(cell_x_, cell_z_, th, centre[0], centre[1], cellsize_, s, EdgeSector::Diagonals);
+  }
   st_.deposit.push_back(row);
 }
 
@@ -236,11 +278,18 @@ void TerrainMaps::write_deposit_csv(const std::string& dir) const {
   if (!active_) return;
   std::ostringstream os;
   os.precision(8);
-  os << (profile_ ? "t,t_flow,length,area,extent\n"
-                   : "t,t_flow,area,volume,extent,points_below_ground,max_depth_below_ground\n");
+  const bool edge = !profile_ && su_->scene.output.deposit_centre.size() == 2;
+  os << (profile_ ? "t,t_flow,length,area,extent"
+                   : "t,t_flow,area,volume,extent,points_below_ground,max_depth_below_ground")
+     << (edge ? ",edge_radius,edge_radius_axes,edge_radius_diagonals\n" : "\n");
   for (const DepositRow& r : st_.deposit) {
     os << r.t << ',' << r.t_flow << ',' << r.area << ',' << r.volume << ',' << r.extent;
     if (!profile_) os << ',' << r.ground_points << ',' << r.ground_depth;
+    if (edge)
+      for (double v : {r.edge_radius, r.edge_axes, r.edge_diagonals}) {
+        os << ',';
+        if (std::isfinite(v)) os << v;  // empty: the deposit reaches the map's edge
+      }
     os << '\n';
   }
   io::write_file(dir + "/deposit.csv", os.str(), io::Durability::Buffered);

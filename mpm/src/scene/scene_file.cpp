@@ -712,6 +712,20 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
         o->fail("deposit_direction", "needs a plan direction [dx, dz] of two numbers, not both zero");
       sc.output.deposit_direction = d;
     }
+    if (o->has("deposit_centre")) {
+      if (D != 3 || !sc.terrain) o->fail("deposit_centre", "deposit measures need a 3D scene with [terrain]");
+      const std::vector<double> c = o->numbers("deposit_centre", Bounds::any(), false);
+      if (c.size() != 2 || !std::isfinite(c[0]) || !std::isfinite(c[1]))
+        o->fail("deposit_centre", "needs a plan position [x, z] of two finite numbers (grid coordinates, m)");
+      const double x0 = sc.origin[0], z0 = sc.origin[2], x1 = x0 + sc.size[0], z1 = z0 + sc.size[2];
+      if (c[0] < x0 || c[0] > x1 || c[1] < z0 || c[1] > z1) {
+        std::ostringstream os;
+        os << "[" << c[0] << ", " << c[1] << "] lies outside the grid's plan [" << x0 << ", " << x1 << "] x [" << z0
+           << ", " << z1 << "] m";
+        o->fail("deposit_centre", os.str());
+      }
+      sc.output.deposit_centre = c;
+    }
     if (o->has("map_cell") && D == 2) {  // the bins of a profile along the base
       if (!sc.base) o->fail("map_cell", "maps need a 3D scene with [terrain] or a 2D one with [base]");
       sc.output.map_cell = o->number("map_cell", Bounds::positive());

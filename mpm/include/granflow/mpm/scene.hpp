@@ -193,6 +193,9 @@ struct OutputSpec {
   std::vector<std::string> fields;
   // 3D terrain runs: the plan direction (x, z) of the deposit's extent in deposit.csv.
   std::vector<double> deposit_direction = {1.0, 0.0};
+  // 3D terrain runs: a plan centre [x, z] (grid coordinates) of deposit.csv's edge_radius, the
+  // deposit's edge about it (an axisymmetric collapse's axis); empty: no edge_radius column.
+  std::vector<double> deposit_centre;
   // 3D terrain runs: the maps' cell size [m], a whole multiple of the raster's; 0: the raster's.
   double map_cell = 0;
   // The forces on obstacles, walls, base and terrain (obstacle_forces.csv); default: on when the
