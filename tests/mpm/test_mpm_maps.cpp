@@ -486,11 +486,10 @@ TEST(TerrainMaps, DepositEdgeOfAConeIsWhereItsThicknessCrossesOneSpacing) {
         thin.push_back(0.5 * s);
         thick.push_back(2 * s);
       }
-    EXPECT_NEAR(deposit_edge_radius(cx, cz, th, c.x0, c.z0, w, s), expected, 1e-12) << c.x0 << " " << c.z0;
-    for (EdgeSector k : {EdgeSector::Axes, EdgeSector::Diagonals})
-      EXPECT_NEAR(deposit_edge_radius(cx, cz, th, c.x0, c.z0, w, s, k), expected, 1e-12) << c.x0 << " " << c.z0;
-    EXPECT_EQ(deposit_edge_radius(cx, cz, thin, c.x0, c.z0, w, s), 0.0);
-    EXPECT_TRUE(std::isnan(deposit_edge_radius(cx, cz, thick, c.x0, c.z0, w, s)));
+    const DepositEdges e = deposit_edges(cx, cz, th, c.x0, c.z0, w, s);
+    for (double edge : {e.all, e.axes, e.diagonals}) EXPECT_NEAR(edge, expected, 1e-12) << c.x0 << " " << c.z0;
+    EXPECT_EQ(deposit_edges(cx, cz, thin, c.x0, c.z0, w, s).all, 0.0);
+    EXPECT_TRUE(std::isnan(deposit_edges(cx, cz, thick, c.x0, c.z0, w, s).all));
   }
 }
 
@@ -508,9 +507,8 @@ TEST(TerrainMaps, DepositEdgeSectorsSeparateTheAxesFromTheDiagonals) {
       const double reach = R * (c2 * c2 + 0.8 * (1 - c2 * c2));
       th.push_back(std::max(0.0, T0 * (1 - std::hypot(cx.back(), cz.back()) / reach)));
     }
-  const double axes = deposit_edge_radius(cx, cz, th, 0, 0, w, s, EdgeSector::Axes);
-  const double diag = deposit_edge_radius(cx, cz, th, 0, 0, w, s, EdgeSector::Diagonals);
-  const double all = deposit_edge_radius(cx, cz, th, 0, 0, w, s);
+  const DepositEdges e = deposit_edges(cx, cz, th, 0, 0, w, s);
+  const double axes = e.axes, diag = e.diagonals, all = e.all;
   EXPECT_GT(axes, 0.96 * 0.9 * R);  // within 15 deg of an axis the reach is at least 0.95 R
   EXPECT_LT(diag, 0.86 * 0.9 * R);  // within 15 deg of a diagonal at most 0.85 R
   EXPECT_LT(diag, all);

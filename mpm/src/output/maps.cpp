@@ -27,35 +27,45 @@ double base_height(const BaseLine& b, double x) {
 
 double plan_z(const Frame& fr, long i) { return fr.dim == 3 ? fr.x[2 * fr.n + i] : 0.0; }
 
-}  // namespace
-
-double deposit_edge_radius(const std::vector<double>& cx, const std::vector<double>& cz, const std::vector<double>& th,
-                           double x0, double z0, double width, double threshold, EdgeSector sector) {
+// Annuli of one sector: per annulus the sum of its cells' distances and thicknesses, and their count.
+struct Annuli {
   std::vector<double> sum_r, sum_t, count;
-  for (size_t c = 0; c < th.size(); ++c) {
-    const double r = std::hypot(cx[c] - x0, cz[c] - z0);
-    if (sector != EdgeSector::All) {
-      const double deg = std::atan2(std::fabs(cz[c] - z0), std::fabs(cx[c] - x0)) * (180 / 3.14159265358979323846);
-      const bool axes = deg <= 15 || deg >= 75, diagonals = std::fabs(deg - 45) <= 15;
-      if (sector == EdgeSector::Axes ? !axes : !diagonals) continue;
-    }
-    const size_t k = static_cast<size_t>(r / width);
+  void add(size_t k, double r, double t) {
     if (k >= count.size()) sum_r.resize(k + 1), sum_t.resize(k + 1), count.resize(k + 1);
     sum_r[k] += r;
-    sum_t[k] += th[c];
+    sum_t[k] += t;
     count[k] += 1;
   }
-  double r_in = 0, t_in = 0;
-  bool first = true;
-  for (size_t k = 0; k < count.size(); ++k) {
-    if (count[k] == 0) continue;
-    const double r = sum_r[k] / count[k], t = sum_t[k] / count[k];
-    if (t < threshold) return first ? 0.0 : r_in + (r - r_in) * (t_in - threshold) / (t_in - t);
-    first = false;
-    r_in = r;
-    t_in = t;
+  // Where the annuli's mean thickness, at their mean distance, first falls below `threshold`.
+  double crossing(double threshold) const {
+    double r_in = 0, t_in = 0;
+    bool first = true;
+    for (size_t k = 0; k < count.size(); ++k) {
+      if (count[k] == 0) continue;
+      const double r = sum_r[k] / count[k], t = sum_t[k] / count[k];
+      if (t < threshold) return first ? 0.0 : r_in + (r - r_in) * (t_in - threshold) / (t_in - t);
+      first = false;
+      r_in = r;
+      t_in = t;
+    }
+    return std::numeric_limits<double>::quiet_NaN();
   }
-  return std::numeric_limits<double>::quiet_NaN();
+};
+
+}  // namespace
+
+DepositEdges deposit_edges(const std::vector<double>& cx, const std::vector<double>& cz, const std::vector<double>& th,
+                           double x0, double z0, double width, double threshold) {
+  Annuli all, axes, diagonals;
+  for (size_t c = 0; c < th.size(); ++c) {
+    const double r = std::hypot(cx[c] - x0, cz[c] - z0);
+    const size_t k = static_cast<size_t>(r / width);
+    all.add(k, r, th[c]);
+    const double deg = std::atan2(std::fabs(cz[c] - z0), std::fabs(cx[c] - x0)) * (180 / 3.14159265358979323846);
+    if (deg <= 15 || deg >= 75) axes.add(k, r, th[c]);
+    if (std::fabs(deg - 45) <= 15) diagonals.add(k, r, th[c]);
+  }
+  return {all.crossing(threshold), axes.crossing(threshold), diagonals.crossing(threshold)};
 }
 
 TerrainMaps::TerrainMaps(const SceneSetup& su) : su_(&su) {
@@ -191,12 +201,11 @@ void TerrainMaps::sample(double t, double t_flow, const Frame& fr) {
   if (hi >= lo) row.extent = hi - lo + s;  // half a spacing beyond the outermost points each way
   if (!profile_) below_ground(fr, row.ground_points, row.ground_depth);
   const std::vector<double>& centre = su_->scene.output.deposit_centre;
-  if (!profile_ && centre.size() == 2)
-  {
-    row.edge_radius = deposit_edge_radius(cell_x_, cell_z_, th, centre[0], centre[1], cellsize_, s);
-    row.edge_axes = deposit_edge_radius(cell_x_, cell_z_, th, centre[0], centre[1], cellsize_, s, EdgeSector::Axes);
-    row.edge_diagonals =
-        deposit_edge_radius(cell_x_, cell_z_, th, centre[0], centre[1], cellsize_, s, EdgeSector::Diagonals);
+  if (!profile_ && centre.size() == 2) {
+    const DepositEdges e = deposit_edges(cell_x_, cell_z_, th, centre[0], centre[1], cellsize_, s);
+    row.edge_radius = e.all;
+    row.edge_axes = e.axes;
+    row.edge_diagonals = e.diagonals;
   }
   st_.deposit.push_back(row);
 }

@@ -18,23 +18,24 @@ struct DepositRow {
   // 3D: the points below the terrain at the sample and the deepest one's depth along the
   // ground's normal [m] (0 and 0 when none is).
   double ground_points = 0, ground_depth = 0;
-  // 3D with output.deposit_centre: the deposit's edge about it (deposit_edge_radius) [m], over
+  // 3D with output.deposit_centre: the deposit's edge about it (deposit_edges) [m], over
   // all directions, and over the cells within 15 deg of a grid axis and of a diagonal.
   double edge_radius = 0, edge_axes = 0, edge_diagonals = 0;
 };
-
-// Which cells about the centre an edge reads: all, or those whose direction from it lies within
-// 15 deg of a grid axis (x or z), or of a diagonal (angles modulo 90 deg).
-enum class EdgeSector { All, Axes, Diagonals };
 
 // The deposit's edge about a plan centre (x0, z0), on map cells given by their plan centres (cx,
 // cz) and thickness th: the cells fall into annuli of `width` by the distance of their centres;
 // each annulus's mean thickness is placed at its cells' mean distance, and the edge is where that
 // piecewise-linear curve first falls below `threshold` going outward. 0 when the innermost
 // annulus is already below it; NaN when none is (the deposit reaches the map's edge). A thickness
-// linear in the distance across the crossing gives its root exactly.
-double deposit_edge_radius(const std::vector<double>& cx, const std::vector<double>& cz, const std::vector<double>& th,
-                           double x0, double z0, double width, double threshold, EdgeSector sector = EdgeSector::All);
+// linear in the distance across the crossing gives its root exactly. Read over all the cells, and
+// over those whose direction from the centre lies within 15 deg of a grid axis (x or z), and of a
+// diagonal (angles modulo 90 deg), in one pass.
+struct DepositEdges {
+  double all = 0, axes = 0, diagonals = 0;
+};
+DepositEdges deposit_edges(const std::vector<double>& cx, const std::vector<double>& cz, const std::vector<double>& th,
+                           double x0, double z0, double width, double threshold);
 
 // What a restart must continue (the checkpoint payload): the maxima and the rows so far.
 struct MapsState {
