@@ -343,10 +343,10 @@ void run_mpm(const MpmOptions& o) {
   const auto t_after = Clock::now();
   std::printf("scene: %s\nparticles: %ld\nsteps: %ld\nsimulated: %.6g s\nwall: %.3f s\n", sc.name.c_str(),
               runner->particles(), s.steps, s.t_end, s.wall_s);
-  if (!sc.adaptive && s.limited_steps > 0)
+  if (!sc.adaptive && s.shortened_steps > 0)
     std::printf("time.dt: %ld steps shortened to the stable step (time.cap_to_stable: CFL 1 of the P-wave and "
                 "particle speeds); the shortest %.4g s against %.4g s\n",
-                s.limited_steps, s.dt_min, sc.dt);
+                s.shortened_steps, s.dt_min, sc.dt);
   std::printf("precision: %s\n", mpm::precision_name(sc.precision));
   std::printf("particle-updates/s: %.4g\n", s.wall_s > 0 ? runner->particles() * double(s.steps) / s.wall_s : 0.0);
   print_step_times(s, runner->particles(), o.backend == "cuda" ? mpm::describe(o.cuda.options()) : "CPU twin");

@@ -88,7 +88,7 @@ void expect_runs_to_its_end(const Release& c) {
   EXPECT_NEAR(s.t_end, c.duration, 1e-9);
   std::printf("h %g mm, phi_c %g, %s, plan %g deg, mu %g, dt %g: %ld steps, %ld shortened (shortest %.3g s)\n", 1e3 * c.h,
               c.phi_c_deg, c.geostatic ? "geostatic" : "zero stress", c.plan_deg, c.mu, c.dt, s.steps,
-              s.limited_steps, s.dt_min);
+              s.shortened_steps, s.dt_min);
 }
 
 // The 2D slide: a 20 x 6 cm block, gravity tilted 30 deg, on a frictionless obstacle floor
@@ -185,13 +185,13 @@ TEST(Stability, SlideIntoAWallRunsToItsEndWithTheCapAndStopsWithoutIt) {
   const RunSummary capped = run_scene(slide_into_wall(true));
   EXPECT_TRUE(capped.ok) << capped.message;
   EXPECT_NEAR(capped.t_end, 0.5, 1e-9);
-  EXPECT_GT(capped.limited_steps, 0);
+  EXPECT_GT(capped.shortened_steps, 0);
   EXPECT_LT(capped.dt_min, 0.5e-4) << "the impact needs steps well below time.dt";
   const RunSummary fixed = run_scene(slide_into_wall(false));
   EXPECT_FALSE(fixed.ok);
   EXPECT_NE(fixed.message.find("blown-up velocity gradient"), std::string::npos) << fixed.message;
   EXPECT_GT(fixed.t_end, 0.3) << "it stops at the impact, not before";
-  EXPECT_EQ(fixed.limited_steps, 0);
+  EXPECT_EQ(fixed.shortened_steps, 0);
 }
 
 // The cap binds only where the step outruns the material: where the stable step never falls below
@@ -215,7 +215,7 @@ TEST(Stability, CapBindsOnlyWhereTheStepOutrunsTheMaterial) {
     r->frame(cap ? fa : fb, true);
   }
   ASSERT_TRUE(a.ok && b.ok);
-  EXPECT_EQ(a.limited_steps, 0);
+  EXPECT_EQ(a.shortened_steps, 0);
   EXPECT_EQ(a.steps, b.steps);
   ASSERT_EQ(fa.x.size(), fb.x.size());
   for (size_t i = 0; i < fa.x.size(); ++i) ASSERT_EQ(fa.x[i], fb.x[i]) << i;
@@ -230,7 +230,7 @@ TEST(Stability, CapBindsOnlyWhereTheStepOutrunsTheMaterial) {
   c.duration = 0.005;
   const RunSummary s = run_release(c);
   ASSERT_TRUE(s.ok) << s.message;
-  EXPECT_GT(s.limited_steps, s.steps / 2);
+  EXPECT_GT(s.shortened_steps, s.steps / 2);
   EXPECT_LT(s.dt_min, c.dt);
   EXPECT_GT(s.dt_min, 0.5 * c.dt) << "the set-up check lets 1e-4 s through: the limit is not far below it";
 }

@@ -33,7 +33,7 @@ struct SpanControl {
   unsigned long long bad;  // pack_bad of the first bad particle, kNoBadParticle: none
   unsigned long long lim;  // dt_limit_bits of the smallest stable step of the current step
   unsigned long long deferred;  // split G2P: points of the span's steps that needed the plastic pass
-  long long limited;       // steps planned below dt_max by the stable limit (SpanResult)
+  long long shortened;     // steps planned below dt_max by the stable limit (SpanResult)
   double dt_min;           // the smallest of those
   unsigned int blocks_done;
   // Ensembles: per member, pack_bad of its first bad particle since the last
@@ -103,10 +103,7 @@ __device__ __forceinline__ void finish_step(SpanControl* ctl, double lim, int wa
     c.t = __dadd_rn(c.t, c.h);
     if (c.adaptive) {
       c.dt = span_next_dt(dt_limit_value(lb), c.dt_max);
-      if (c.dt < c.dt_max) {
-        c.limited += 1;
-        c.dt_min = c.dt < c.dt_min ? c.dt : c.dt_min;
-      }
+      span_count_shortened(c.dt, c.dt_max, c.shortened, c.dt_min);
     }
     if (span_reached(c.t, c.t_until) || c.steps >= c.max_steps)
       c.active = 0;
@@ -201,7 +198,7 @@ inline SpanResult CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::span_resu
   r.t = o.t;
   r.dt = o.dt;
   r.h_last = o.h_last;
-  r.limited = static_cast<long>(o.limited);
+  r.shortened = static_cast<long>(o.shortened);
   r.dt_min = o.dt_min;
   if (o.bad != kNoBadParticle) {
     r.ok = false;

@@ -334,7 +334,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
       span.max_steps = span_length(span, std::max(1L, opt.max_span));
       const SpanResult r = runner.advance_span(span);
       step += r.steps;
-      sum.limited_steps += r.limited;
+      sum.shortened_steps += r.shortened;
       sum.dt_min = std::min(sum.dt_min, r.dt_min);
       at.step = step;
       at.t = r.t;

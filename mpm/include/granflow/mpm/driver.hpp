@@ -46,7 +46,7 @@ struct RunSummary {
   long steps = 0;
   double t_end = 0;
   double wall_s = 0;
-  long limited_steps = 0;  // steps the stable limit shortened below time.dt (since the start or resume)
+  long shortened_steps = 0;  // steps the stable limit shortened below time.dt (since the start or resume)
   double dt_min = std::numeric_limits<double>::infinity();  // the shortest of those
   Measures final;
   std::vector<SeriesRow> series;

@@ -145,7 +145,7 @@ struct SpanResult {
   double t = 0;              // time after the last good step
   double dt = 0;             // step size for the next span (adaptive: from the last good step)
   double h_last = 0;         // size of the last step taken (the failed one on failure)
-  long limited = 0;          // steps planned below dt_max by the stable limit (adaptive spans)
+  long shortened = 0;        // steps planned below dt_max by the stable limit (adaptive spans)
   double dt_min = std::numeric_limits<double>::infinity();  // the smallest of those
 };
 
@@ -327,10 +327,7 @@ inline SpanResult Runner::advance_span(const Span& s) {
     r.t += h;
     if (s.adaptive) {
       r.dt = span_next_dt(st.dt_limit, s.dt_max);
-      if (r.dt < s.dt_max) {
-        ++r.limited;
-        r.dt_min = std::min(r.dt_min, r.dt);
-      }
+      span_count_shortened(r.dt, s.dt_max, r.shortened, r.dt_min);
     }
     if (span_reached(r.t, s.t_until)) break;
   }

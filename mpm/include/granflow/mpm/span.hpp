@@ -28,6 +28,16 @@ GF_HDI double span_step_size(double t, double dt, double t_land) {
 // a NaN limit gives the limit, as the host loop did).
 GF_HDI double span_next_dt(double limit, double dt_max) { return dt_max < limit ? dt_max : limit; }
 
+// A next step that the stable limit planned below dt_max counts as shortened (SpanResult's
+// shortened and dt_min).
+template <class Count>
+GF_HDI void span_count_shortened(double dt, double dt_max, Count& shortened, double& dt_min) {
+  if (dt < dt_max) {
+    shortened += 1;
+    dt_min = dt < dt_min ? dt : dt_min;
+  }
+}
+
 // A span ends after the first step whose end time reaches t_until (or after max_steps steps,
 // or on a failed step).
 GF_HDI bool span_reached(double t, double t_until) { return t >= t_until; }
