@@ -35,6 +35,12 @@
 #   slabs          one scene over 2 GPUs (needs 2): mpm_cuda_check --slabs; the 3D slab's strong
 #                  scaling (--stop-after 0.15, fp32) and the slab widened to 6.4e7 points (bench
 #                  mpm), on 2 and 1 GPUs
+#   cylinder       the axisymmetric collapse (issue 53; scripts/make_cylinder_collapse.py, fp32,
+#                  the column_collapse set): CYL_CASES="A H [VARIANT [ARGS...]]; ..." (default: the
+#                  series a = 1, 2, 4 at R0/h = 12.5 and 25), a VARIANT's ARGS going to granflow mpm
+#                  but --gen-KEY=VALUE, which goes to the generator as --KEY VALUE (--gen-model=frictional,
+#                  --gen-duration=0.5); one row per run in cylinder.csv
+#                  (scripts/cylinder_summary.py)
 #   frames         the host time outside the steps of the 3D slab (8e6 points, --stop-after 0.15,
 #                  fp32, one GPU): whole command, run wall, device time of the spans; BASE_G=PATH
 #                  (with BASE_SC, the scene folder of that tree) runs an earlier build first, in
@@ -185,6 +191,34 @@ series() {
       printf "%s,%g,%s,%s,%s,%s,%d,%s,%s,%s,%s,%s,%s,%s,%s,%s\n", scene, h * 1000, mode, dt, prec, model, rc,
              steps, wall, dev, r4, r8, ro, ht, tend, extra
     }' "$R/$name.txt" | tee -a "$CSV"
+}
+
+part_cylinder() {
+  local cases=${CYL_CASES:-"1 0.008; 2 0.008; 4 0.008; 1 0.004; 2 0.004; 4 0.004"}
+  local c dirs=() IFS_old=$IFS
+  IFS=';'
+  local list=($cases)
+  IFS=$IFS_old
+  for c in "${list[@]}"; do
+    # shellcheck disable=SC2086
+    set -- $c
+    local a=$1 h=$2 variant=${3:-} gen=()
+    shift 2
+    [ $# -gt 0 ] && shift
+    local dir=$R/cyl_a${a}_h${h}${variant:+__$variant} args=()
+    for w in "$@"; do
+      case $w in
+        --gen-*=*) w=${w#--gen-}; gen+=("--${w%%=*}" "${w#*=}") ;;  # to the generator
+        *) args+=("$w") ;;
+      esac
+    done
+    python3 scripts/make_cylinder_collapse.py "$dir" --a "$a" --h "$h" "${gen[@]}" >>"$log" || return 1
+    x "${TMO:-590}" "$dir/run.txt" "$G" mpm "$dir/scene.toml" --backend "$BACKEND" --out "$dir/run" --force --no-png "${args[@]}"
+    echo $? >"$dir/exit"
+    dirs+=("$dir")
+    python3 scripts/cylinder_summary.py "$dir" | tail -1 | tee -a "$log"
+  done
+  python3 scripts/cylinder_summary.py "${dirs[@]}" >"$RES/cylinder.csv"
 }
 
 part_build() {
@@ -587,8 +621,8 @@ main() {
   local part fn f t0 status=0
   for part in "$@"; do
     case $part in
-      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options | flow | sanitize-ensemble | loadcell-pt | loadcell-fr | loadcell-ens | slabs | frames) ;;
-      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options flow sanitize-ensemble loadcell-pt loadcell-fr loadcell-ens slabs frames)" >&2
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options | flow | sanitize-ensemble | loadcell-pt | loadcell-fr | loadcell-ens | slabs | frames | cylinder) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options flow sanitize-ensemble loadcell-pt loadcell-fr loadcell-ens slabs frames cylinder)" >&2
          return 2 ;;
     esac
   done

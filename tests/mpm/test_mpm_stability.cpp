@@ -6,12 +6,17 @@
 
 #include <cmath>
 #include <cstdio>
+#include <algorithm>
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
 
+#include <Eigen/Dense>
+
 #include <granflow/mpm/driver.hpp>
+#include <granflow/mpm/kernels.hpp>
 #include <granflow/mpm/runner.hpp>
 #include <granflow/mpm/scene.hpp>
 #include <granflow/mpm/scene_file.hpp>
@@ -273,4 +278,94 @@ TEST(Stability, CollapsedStableStepStopsTheRunNamingTheFastestPoint) {
     EXPECT_LE(s.steps, 100 + 200) << "it stops within the span that collapsed";
     std::printf("%s\n", s.message.c_str());
   }
+}
+
+// The light-node limit (kernels.hpp, LightNodeFactor): a point at the edge of a body reaches the
+// next node column with a weight of 0.02 (that node's mass: the light-node floor). With linear
+// hats the step the limit gives is below the critical step 2 / sqrt(lambda_max) of the point's
+// own lumped system (M = the nodes' force masses, K_IJ = m_p c_p^2 grad N_I . grad N_J, solved
+// here with Eigen), and within a factor of two of it; the point with heavy nodes only, and
+// quadratic B-splines, leave the limit to the constitutive update.
+namespace {
+struct LightNodeCase {
+  using FR = FrictionalModel<double>;
+  using Lay = ParticleLayout<2, false>;
+  using G = GridLayout<2>;
+  GridDesc<2, double> g{{0.0, 0.0}, 0.1, 10.0, {8, 8}, 64};
+  StepParams<2, double, FR> sp{};
+  std::vector<double> pa = std::vector<double>(Lay::N, 0.0), ga = std::vector<double>(G::N * 64, 0.0);
+  ParticleView<double> pv{pa.data(), 1};
+  GridView<double> gv{ga.data(), 64, nullptr};
+  LightNodeCase(double xi0, double heavy_right) {
+    g.nx = 8;
+    const Scene sc = small_column_scene(ModelKind::Frictional, ShapeKind::Linear);
+    sp.grid = g;
+    sp.mp = sc.material.params.f;
+    sp.rho_p = sc.material.params.c.rho_p;
+    sp.dt = 1e-5;
+    sp.cfl = 1;
+    sp.flip = 1;
+    sp.want_dt_limit = 1;
+    sp.mass_eps = 1e-8;
+    sp.mass_floor = 0.05;  // of the point's mass (1 kg)
+    pv.f(Lay::X, 0) = xi0 * g.h;
+    pv.f(Lay::X + 1, 0) = 3.25 * g.h;
+    pv.f(Lay::M, 0) = 1.0;
+    pv.f(Lay::E, 0) = 0.6;
+    for (int c : {0, 1, 2}) pv.f(Lay::SIGF + c, 0) = -1e4;  // xx, yy, zz: p = 10 kPa
+    for (int c : {0, 1, 2}) pv.f(Lay::SIG + c, 0) = -1e4;
+    // node masses: the point's share, and 10 kg of body on the left column (and the right one
+    // where heavy_right)
+    for (int i = 0; i < 8; ++i)
+      for (int j = 0; j < 8; ++j) {
+        const double wx = LinearShape::w(xi0 - i), wy = LinearShape::w(3.25 - j);
+        double m = wx * wy;
+        if (m > 0) m += i == 3 ? 10.0 : heavy_right;
+        gv.f(G::M, g.linear(std::array<int, 2>{i, j}.data())) = m;
+      }
+  }
+  // 2 / sqrt(lambda_max) of the point's stencil: lumped force masses, scalar-wave stiffness.
+  double critical_step() const {
+    const double c = sp.cfl * g.h / particle_dt_limit<2, double, FR>(
+                                           StateIO<FR>::load<2>(pv, 0), sp, 0.0);  // c_p
+    const double xi0 = pv.f(Lay::X, 0) / g.h;
+    Eigen::Matrix4d K, M = Eigen::Matrix4d::Zero();
+    Eigen::Vector2d grad[4];
+    for (int k = 0; k < 4; ++k) {
+      const int i = 3 + k % 2, j = 3 + k / 2;
+      const double wx = LinearShape::w(xi0 - i), wy = LinearShape::w(3.25 - j);
+      grad[k] = Eigen::Vector2d(LinearShape::dw(xi0 - i) * wy, wx * LinearShape::dw(3.25 - j)) / g.h;
+      const int I[2] = {i, j};
+      M(k, k) = std::max(gv.f(G::M, g.linear(I)), sp.mass_floor);
+    }
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) K(a, b) = 1.0 * c * c * grad[a].dot(grad[b]);
+    Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::Matrix4d> es(K, M);
+    return 2.0 / std::sqrt(es.eigenvalues().maxCoeff());
+  }
+};
+}  // namespace
+
+TEST(Stability, LightNodeLimitIsBelowTheCriticalStepOfTheLightestNode) {
+  LightNodeCase light(3.98, 0.0);  // the right column gets 0.02 of the point: below the floor
+  double lim = 1e300;
+  ASSERT_EQ((g2p_kinematics<2, double, LightNodeCase::FR, LinearShape>(light.pv, light.gv, 0, light.sp, &lim)), kOk);
+  const double crit = light.critical_step();
+  const double own = particle_dt_limit<2, double, LightNodeCase::FR>(
+      StateIO<LightNodeCase::FR>::load<2>(light.pv, 0), light.sp, 0.0);
+  std::printf("light node: limit %.4e s, critical step %.4e s, the point's own (cfl 1) %.4e s\n", lim, crit, own);
+  EXPECT_LT(crit, own);           // the P-wave step alone would outrun the light node
+  EXPECT_LE(lim, crit * (1 + 1e-12));
+  EXPECT_GE(lim, 0.5 * crit);
+
+  LightNodeCase heavy(3.98, 10.0);  // both columns carry the body: no light node
+  double lim_h = 1e300;
+  ASSERT_EQ((g2p_kinematics<2, double, LightNodeCase::FR, LinearShape>(heavy.pv, heavy.gv, 0, heavy.sp, &lim_h)), kOk);
+  EXPECT_EQ(lim_h, 1e300);
+  EXPECT_GT(heavy.critical_step(), own);
+
+  LightNodeCase quad(3.98, 0.0);
+  double lim_q = 1e300;
+  ASSERT_EQ((g2p_kinematics<2, double, LightNodeCase::FR, QuadraticShape>(quad.pv, quad.gv, 0, quad.sp, &lim_q)), kOk);
+  EXPECT_EQ(lim_q, 1e300);
 }

@@ -251,7 +251,7 @@ class CpuRunner final : public Runner {
         lim[p] = std::numeric_limits<S>::max();
         const int k = member_of(p);
         if (skipped(k)) continue;
-        st[p] = g2p_kinematics<D, S, Model, Shape>(pv, member_view(gv, k), p, params_of(k, p));
+        st[p] = g2p_kinematics<D, S, Model, Shape>(pv, member_view(gv, k), p, params_of(k, p), &lim[p]);
         any |= st[p];
       }
       if (!any || kMembers) {  // a member whose kinematics failed does not stop the others

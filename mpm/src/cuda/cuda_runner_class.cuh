@@ -174,6 +174,7 @@ class CudaRunner final : public Runner {
   S* part_ = nullptr;              // particle fields (ParticleLayout), slots in sorted order
   S* alt_ = nullptr;               // gather target of a sort; staging of downloads
   S* grid_ = nullptr;
+  S* g2p_mass_ = nullptr;  // linear hats: node masses for G2P (GridView::g2p_mass)
   std::uint32_t* status_ = nullptr;
   std::uint32_t* info_ = nullptr;  // per-slot update record (kernels.hpp, record::pack)
   DeviceUpdateStats* stats_ = nullptr;  // their sums (CudaOptions::update_stats; null: not kept)

@@ -83,6 +83,7 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const Sce
   part_ = device_alloc<S>(nf);
   alt_ = device_alloc<S>(nf);
   grid_ = device_alloc<S>(static_cast<size_t>(G::N) * nn);
+  if constexpr (Shape::kind == ShapeKind::Linear) g2p_mass_ = device_alloc<S>(static_cast<size_t>(nn));
   status_ = device_alloc<std::uint32_t>(cap_);
   info_ = device_alloc<std::uint32_t>(cap_);
   if (opt_.update_stats) {
@@ -193,7 +194,7 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::~CudaRunner() {
   if (copy_stream_) cudaStreamSynchronize(copy_stream_);
   for (auto& [k, g] : graphs_) cudaGraphExecDestroy(g);
   for (void* p : {static_cast<void*>(part_), static_cast<void*>(alt_), static_cast<void*>(grid_),
-                  static_cast<void*>(status_), static_cast<void*>(info_), static_cast<void*>(ids_),
+                  static_cast<void*>(g2p_mass_), static_cast<void*>(status_), static_cast<void*>(info_), static_cast<void*>(ids_),
                   static_cast<void*>(ids_alt_), static_cast<void*>(inv_), static_cast<void*>(keys_),
                   static_cast<void*>(bins_), static_cast<void*>(sort_tmp_), static_cast<void*>(ctl_),
                   static_cast<void*>(sub_ids_), static_cast<void*>(sub_out_), static_cast<void*>(deferred_),

@@ -192,6 +192,7 @@ __global__ void grid_kernel(GridView<S> gv, StepParams<D, S, Model> sp0, const S
   } else {
     grid_update_node<D, S, Model, kBoundary, kContacts>(gv, I, sp);
   }
+  if (gv.g2p_mass) gv.g2p_mass[I] = gv.f(GridLayout<D>::M, I);  // G2P's light-node limit (linear hats)
   for (int f = 0; f < 1 + 2 * D; ++f) gv.f(f, I) = S(0);
 }
 
@@ -399,7 +400,9 @@ __global__ void g2p_kinematics_kernel(ParticleView<S> pv, GridView<S> gv, StepPa
     if (sp.members.skipped(k)) return;
     StepParams<D, S, Model> spm = sp;
     apply_member(spm, sp.members.value_index(k, p));
-    const std::uint32_t st = g2p_kinematics<D, S, Model, Shape>(pv, member_grid(gv, sp.members, k), p, spm);
+    S lim = S(1e300);
+    const std::uint32_t st = g2p_kinematics<D, S, Model, Shape>(pv, member_grid(gv, sp.members, k), p, spm, &lim);
+    if (lim < S(1e300)) atomicMin(&ctl->lim, dt_limit_bits(double(lim)));  // light nodes (rare)
     status[p] = st;
     if (st) {
       report_bad<kMembers>(ctl, k, ids[p], st);
@@ -410,7 +413,9 @@ __global__ void g2p_kinematics_kernel(ParticleView<S> pv, GridView<S> gv, StepPa
     atomicAdd(&bin_v[keys[p]], V);
     atomicAdd(&bin_vtr[keys[p]], V * tr);
   } else {
-    const std::uint32_t st = g2p_kinematics<D, S, Model, Shape>(pv, gv, p, sp);
+    S lim = S(1e300);
+    const std::uint32_t st = g2p_kinematics<D, S, Model, Shape>(pv, gv, p, sp, &lim);
+    if (lim < S(1e300)) atomicMin(&ctl->lim, dt_limit_bits(double(lim)));  // light nodes (rare)
     status[p] = st;
     if (st) {
       atomicMin(&ctl->bad, pack_bad(ids[p], st));
@@ -632,7 +637,8 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_p2g() {
 
 template <int D, class S, class Model, class Shape, bool kBoundary, bool kMembers>
 inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_grid() {
-  const GridView<S> gv{grid_, nn_, masks_[stage_]};
+  GridView<S> gv{grid_, nn_, masks_[stage_]};
+  gv.g2p_mass = g2p_mass_;
   const unsigned gb = blocks_for(nn_, kGridBlock);
   if constexpr (kBoundary)
     if (n_probes_ > 0)
@@ -663,7 +669,8 @@ template <int D, class S, class Model, class Shape, bool kBoundary, bool kMember
 inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_g2p() {
   const long nn = nn_;  // of all members
   const ParticleView<S> pv = part_view();
-  const GridView<S> gv{grid_, nn, masks_[stage_]};
+  GridView<S> gv{grid_, nn, masks_[stage_]};
+  gv.g2p_mass = g2p_mass_;
   const unsigned pb = blocks_for(n_, kP2GBlock);
   const unsigned cb = blocks_for(n_, opt_.g2p_block);
   if (split()) {

@@ -125,6 +125,7 @@ template <class S, class P>
 GF_HDI GridView<S> member_grid(const GridView<S>& gv, const Members<P, S>& m, int k) {
   GridView<S> v = gv;
   v.a += static_cast<long>(k) * m.nodes;
+  if (v.g2p_mass) v.g2p_mass += static_cast<long>(k) * m.nodes;
   if (v.mask) v.mask += static_cast<long>(k) * m.mask_stride;
   v.block = m.nodes;
   return v;
@@ -338,12 +339,38 @@ GF_HDI S particle_dt_limit(const typename Model::State& st, const StepParams<D, 
   return S(lim);
 }
 
+// Light nodes and the stable step (linear hats). A node that a point reaches with a small
+// weight has a small mass but, with linear hats, not a small stiffness: a hat's gradient does
+// not vanish at its edge. Gershgorin on the lumped mass bounds the node's frequency by
+// omega^2 <= (V M / m_I) |grad N_Ip| sum_J |grad N_Jp| (M = K + 4/3 G = rho c_p^2), so the
+// node's stable step is
+//   dt_I = 2 sqrt(m_I / (m_p g_I sum_J g_J)) h / c_p,   g = h |grad N| (grid units),
+// with m_I the force's mass max(m_I, mass_floor) (grid_update_node). A point touching a node
+// at the light-node floor (0.05 of a point) sees 0.32 h / c_p; an interior node (8 points a
+// cell in 3D) gives about 4.6 h / c_p and never binds. The factor below is that step in units
+// of h / c_p; the limit multiplies particle_dt_limit by it. Quadratic B-splines have a gradient
+// that vanishes like the square root of the weight, so no such node: their factor is 1.
+struct LightNodeFactor {
+  double min_ratio = 1e300;  // min over the stencil of m_I / (m_p g_I)
+  double sum_g = 0;          // sum over the stencil of g_J
+  GF_HDI double factor() const {
+    if (!(sum_g > 0)) return 1e300;
+    return 2.0 * std::sqrt(min_ratio / sum_g);
+  }
+};
+
 // 3a. Velocity, position and velocity gradient of one particle (L stored in the particle).
+// With dt_limit (linear hats, when the step computes its stable limit): *dt_limit is lowered
+// to the stable step of the point's lightest node (LightNodeFactor), where that is below the
+// point's own; the constitutive update then lowers it to the point's own limit.
 template <int D, class S, class Model, class Shape>
 GF_HDI std::uint32_t g2p_kinematics(const ParticleView<S>& pv, const GridView<S>& gv, long p,
-                                    const StepParams<D, S, Model>& sp) {
+                                    const StepParams<D, S, Model>& sp, S* dt_limit = nullptr) {
   using Lay = ParticleLayout<D, Model::kCollisional>;
   using G = GridLayout<D>;
+  constexpr bool kLight = Shape::kind == ShapeKind::Linear;
+  const bool light = kLight && dt_limit != nullptr && sp.want_dt_limit;
+  LightNodeFactor lf;
   S xi[D];
   for (int d = 0; d < D; ++d) xi[d] = (pv.f(Lay::X + d, p) - sp.grid.origin[d]) * sp.grid.inv_h;
   int base[D];
@@ -368,6 +395,19 @@ GF_HDI std::uint32_t g2p_kinematics(const ParticleView<S>& pv, const GridView<S>
       gradN[d] = v;
     }
     const long n = sp.grid.linear(I);
+    if constexpr (kLight) {
+      if (light) {
+        double g2 = 0;
+        for (int d = 0; d < D; ++d) g2 += double(gradN[d]) * double(gradN[d]);
+        const double g = std::sqrt(g2) * double(sp.grid.h);
+        if (g > 0) {
+          const S m = gv.node_mass_g2p(G::M, n);
+          const double r = double(m > sp.mass_floor ? m : sp.mass_floor) / (double(pv.f(Lay::M, p)) * g);
+          lf.min_ratio = r < lf.min_ratio ? r : lf.min_ratio;
+          lf.sum_g += g;
+        }
+      }
+    }
     for (int a = 0; a < D; ++a) {
       const S vn = gv.f(G::VNEW + a, n);
       vpic[a] += N * vn;
@@ -390,6 +430,16 @@ GF_HDI std::uint32_t g2p_kinematics(const ParticleView<S>& pv, const GridView<S>
     for (int b = 0; b < D; ++b) pv.f(Lay::L + a * D + b, p) = L[a][b];
   for (int d = 0; d < D; ++d) xi[d] = (pv.f(Lay::X + d, p) - sp.grid.origin[d]) * sp.grid.inv_h;
   if (!stencil_base<D, S, Shape>(xi, sp.grid, base)) return kLeftGrid;
+  if constexpr (kLight) {
+    const double f = light ? lf.factor() : 1e300;
+    if (f < 1.0) {  // the point's c_p from its state at the start of the step
+      S speed2 = S(0);
+      for (int d = 0; d < D; ++d) speed2 += pv.f(Lay::V + d, p) * pv.f(Lay::V + d, p);
+      const S lim = S(f) * particle_dt_limit<D, S, Model>(StateIO<Model>::template load<D>(pv, p), sp,
+                                                          std::sqrt(speed2));
+      *dt_limit = lim < *dt_limit ? lim : *dt_limit;
+    }
+  }
   return kOk;
 }
 
@@ -451,7 +501,8 @@ GF_HDI std::uint32_t constitutive_particle(const ParticleView<S>& pv, long p, co
   if (sp.want_dt_limit) {
     S speed2 = S(0);
     for (int d = 0; d < D; ++d) speed2 += pv.f(Lay::V + d, p) * pv.f(Lay::V + d, p);
-    *dt_limit = particle_dt_limit<D, S, Model>(st, sp, std::sqrt(speed2));
+    const S lim = particle_dt_limit<D, S, Model>(st, sp, std::sqrt(speed2));
+    *dt_limit = lim < *dt_limit ? lim : *dt_limit;  // g2p_kinematics may have lowered it (light nodes)
   }
   return kOk;
 }
@@ -461,7 +512,7 @@ GF_HDI std::uint32_t constitutive_particle(const ParticleView<S>& pv, long p, co
 template <int D, class S, class Model, class Shape, UpdatePart P = UpdatePart::Full>
 GF_HDI std::uint32_t g2p_particle(const ParticleView<S>& pv, const GridView<S>& gv, long p,
                                   const StepParams<D, S, Model>& sp, S* dt_limit, std::uint32_t* upd_info) {
-  const std::uint32_t s = g2p_kinematics<D, S, Model, Shape>(pv, gv, p, sp);
+  const std::uint32_t s = g2p_kinematics<D, S, Model, Shape>(pv, gv, p, sp, dt_limit);
   if (s != kOk) return s;
   return constitutive_particle<D, S, Model, P>(pv, p, sp, S(NAN), dt_limit, upd_info);
 }

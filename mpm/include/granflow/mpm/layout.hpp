@@ -53,7 +53,11 @@ struct GridView {
   // Nodes of the block whose masks precede the contact table (boundary.hpp); 0: n. An
   // ensemble member's view (member_grid) sees its own block of nodes, masks and table.
   long block = 0;
+  // Node masses for G2P's light-node limit (linear hats): null reads field M (the CPU twin);
+  // the CUDA grid kernel clears M after using it and leaves a copy here.
+  S* g2p_mass = nullptr;
   GF_HDI S& f(int field, long i) const { return a[static_cast<long>(field) * n + i]; }
+  GF_HDI S node_mass_g2p(int m_field, long i) const { return g2p_mass ? g2p_mass[i] : f(m_field, i); }
 };
 
 // Background grid: nodes at origin + I h, I in [0, cells] per axis. `walls` (default none)

@@ -1,0 +1,103 @@
+#!/usr/bin/env python3
+"""One row per axisymmetric-collapse run (issue 53; docs/mpm_results.md, "Axisymmetric collapse").
+
+    python3 scripts/cylinder_summary.py CASE_DIR [CASE_DIR ...] > cylinder.csv
+
+CASE_DIR is what scripts/make_cylinder_collapse.py wrote (scene.toml, whose first line names a,
+R0 and h) with the run in CASE_DIR/run and granflow's printed summary in CASE_DIR/run.txt
+(scripts/gpu.sh part cylinder). Columns:
+
+    case            the folder's name
+    a, r0_m, h_mm, r0_over_h, variant   the set-up (variant: the folder's name after "__")
+    exit            granflow's exit code (CASE_DIR/exit; absent: 0)
+    steps, wall_s, device_us_per_step   from run.txt
+    runout_front_m  runout.csv's last run-out (along x on the symmetry plane)
+    edge_m, edge_axes_m, edge_diagonals_m   deposit.csv's last edge radii (maps)
+    height_m        runout.csv's last height (H_inf)
+    spread_front, spread_edge   (R_inf - R0) / R0 on either measure
+    lube            Lube et al. (2004, J. Fluid Mech. 508, eqs. 3.1-3.2, named before the runs):
+                    (R_inf - R0) / R0 = 1.24 a for a < 1.7, 1.6 a^(1/2) above
+    edge_vs_lube    spread_edge / lube - 1
+    height_over_r0  H_inf / R0
+    t_stop_s, t_stop_scaled   the first time after the peak of the kinetic energy at which it is
+                    below 1e-3 of the peak, and that time over sqrt(H0 / g) (empty: not reached)
+"""
+import csv
+import math
+import os
+import re
+import sys
+
+G = 9.81
+
+
+def lube(a):
+    return 1.24 * a if a < 1.7 else 1.6 * math.sqrt(a)
+
+
+def last_row(path):
+    rows = list(csv.DictReader(open(path)))
+    return rows, rows[-1] if rows else None
+
+
+def summary(case):
+    head = open(os.path.join(case, "scene.toml")).readline()
+    m = re.search(r"a = ([0-9.eE+-]+), R0 = ([0-9.eE+-]+) m, h = ([0-9.eE+-]+) m", head)
+    if not m:
+        raise SystemExit(f"{case}/scene.toml: line 1 does not name a, R0 and h (not made by make_cylinder_collapse.py?)")
+    a, r0, h = (float(v) for v in m.groups())
+    name = os.path.basename(os.path.normpath(case))
+    out = {"case": name, "a": a, "r0_m": r0, "h_mm": h * 1e3, "r0_over_h": round(r0 / h, 2),
+           "variant": name.split("__", 1)[1] if "__" in name else "baseline"}
+    ex = os.path.join(case, "exit")
+    out["exit"] = open(ex).read().strip() if os.path.exists(ex) else "0"
+    txt = os.path.join(case, "run.txt")
+    if os.path.exists(txt):
+        for line in open(txt):
+            if line.startswith("steps:"):
+                out["steps"] = line.split()[1]
+            elif line.startswith("wall:"):
+                out["wall_s"] = line.split()[1]
+            elif "device time per step (spans)" in line:
+                out["device_us_per_step"] = line.split()[5]
+    run = os.path.join(case, "run")
+    ro = os.path.join(run, "runout.csv")
+    if os.path.exists(ro):
+        rows, last = last_row(ro)
+        if last:
+            out["runout_front_m"] = last["runout"]
+            out["height_m"] = last["height"]
+            ke = [(float(r["t"]), float(r["kinetic_energy"])) for r in rows]
+            ipk = max(range(len(ke)), key=lambda i: ke[i][1])
+            peak = ke[ipk][1]
+            stop = next((t for t, e in ke[ipk:] if e < 1e-3 * peak), None)
+            if stop is not None:
+                out["t_stop_s"] = stop
+                out["t_stop_scaled"] = round(stop / math.sqrt(a * r0 / G), 3)
+            front = float(last["runout"])
+            out["spread_front"] = round((front - r0) / r0, 4)
+            out["height_over_r0"] = round(float(last["height"]) / r0, 4)
+    dep = os.path.join(run, "deposit.csv")
+    if os.path.exists(dep):
+        _, last = last_row(dep)
+        if last:
+            out["edge_m"] = last["edge_radius"]
+            out["edge_axes_m"] = last["edge_radius_axes"]
+            out["edge_diagonals_m"] = last["edge_radius_diagonals"]
+            out["spread_edge"] = round((float(last["edge_radius"]) - r0) / r0, 4)
+            out["edge_vs_lube"] = round(out["spread_edge"] / lube(a) - 1, 4)
+    out["lube"] = round(lube(a), 4)
+    return out
+
+
+COLS = ["case", "a", "r0_m", "h_mm", "r0_over_h", "variant", "exit", "steps", "wall_s", "device_us_per_step",
+        "runout_front_m", "edge_m", "edge_axes_m", "edge_diagonals_m", "height_m", "spread_front", "spread_edge",
+        "lube", "edge_vs_lube", "height_over_r0", "t_stop_s", "t_stop_scaled"]
+
+if __name__ == "__main__":
+    if len(sys.argv) < 2:
+        raise SystemExit(__doc__)
+    w = csv.DictWriter(sys.stdout, COLS, extrasaction="ignore", lineterminator="\n")
+    w.writeheader()
+    for c in sys.argv[1:]:
+        w.writerow(summary(c))
