@@ -60,6 +60,7 @@ class CudaRunner final : public Runner {
   // Frictional terrain (3D): plain runs and, in 3D, the single runs of several materials (3D
   // kMembers instantiations are never ensembles: one grid block, the terrain's node indices).
   static constexpr bool kTerrain = kBoundary && (!kMembers || D == 3);
+  static constexpr bool kKeepMass = Shape::kind == ShapeKind::Linear;  // G2P's light-node limit (g2p_mass_)
   static constexpr int kElastic = elastic_min_blocks<typename Model::Scalar>(false);
   static constexpr int kElasticCap = elastic_min_blocks<typename Model::Scalar>(true);
   static constexpr int kPlastic = plastic_min_blocks<typename Model::Scalar>();

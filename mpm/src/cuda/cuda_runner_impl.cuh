@@ -83,7 +83,7 @@ inline CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::CudaRunner(const Sce
   part_ = device_alloc<S>(nf);
   alt_ = device_alloc<S>(nf);
   grid_ = device_alloc<S>(static_cast<size_t>(G::N) * nn);
-  if constexpr (Shape::kind == ShapeKind::Linear) g2p_mass_ = device_alloc<S>(static_cast<size_t>(nn));
+  if constexpr (kKeepMass) g2p_mass_ = device_alloc<S>(static_cast<size_t>(nn));
   status_ = device_alloc<std::uint32_t>(cap_);
   info_ = device_alloc<std::uint32_t>(cap_);
   if (opt_.update_stats) {

@@ -176,7 +176,8 @@ __global__ void __launch_bounds__(kP2GBlock, p2g_min_blocks<S>())
 // next P2G (the grid starts zeroed).
 // kMembers: over the nodes of all members; node I is node I - k G of member k's view (its
 // values, masks and contact table).
-template <int D, class S, class Model, bool kBoundary, bool kContacts, bool kMembers>
+// kKeepMass (linear hats): the node's mass is copied to gv.g2p_mass for G2P's light-node limit.
+template <int D, class S, class Model, bool kBoundary, bool kContacts, bool kMembers, bool kKeepMass = false>
 __global__ void grid_kernel(GridView<S> gv, StepParams<D, S, Model> sp0, const SpanControl* ctl) {
   if (!ctl->active) return;
   const long I = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
@@ -192,7 +193,7 @@ __global__ void grid_kernel(GridView<S> gv, StepParams<D, S, Model> sp0, const S
   } else {
     grid_update_node<D, S, Model, kBoundary, kContacts>(gv, I, sp);
   }
-  if (gv.g2p_mass) gv.g2p_mass[I] = gv.f(GridLayout<D>::M, I);  // G2P's light-node limit (linear hats)
+  if constexpr (kKeepMass) gv.g2p_mass[I] = gv.f(GridLayout<D>::M, I);
   for (int f = 0; f < 1 + 2 * D; ++f) gv.f(f, I) = S(0);
 }
 
@@ -490,8 +491,8 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::preload() const
           "load kernels");
   const void* k[] = {reinterpret_cast<const void*>(p2g_kernel<D, S, Model, Shape, kP2GAtomic, kMembers>),
                      reinterpret_cast<const void*>(p2g_kernel<D, S, Model, Shape, kP2GWarp, kMembers>),
-                     reinterpret_cast<const void*>(grid_kernel<D, S, Model, kBoundary, false, kMembers>),
-                     reinterpret_cast<const void*>(grid_kernel<D, S, Model, kBoundary, kBoundary, kMembers>),
+                     reinterpret_cast<const void*>(grid_kernel<D, S, Model, kBoundary, false, kMembers, kKeepMass>),
+                     reinterpret_cast<const void*>(grid_kernel<D, S, Model, kBoundary, kBoundary, kMembers, kKeepMass>),
                      reinterpret_cast<const void*>(g2p_kernel<D, S, Model, Shape, 256, 1, kMembers>),
                      reinterpret_cast<const void*>(g2p_kernel<D, S, Model, Shape, 128, 3, kMembers>),
                      reinterpret_cast<const void*>(g2p_kinematics_kernel<D, S, Model, Shape, kMembers>),
@@ -645,9 +646,9 @@ inline void CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::enqueue_grid() 
       probe_trial_kernel<D, S, Model, kMembers><<<blocks_for(n_probes_, kGridBlock), kGridBlock, 0, stream_>>>(
           gv, sp_, ctl_, probes_, n_probes_, trial_);
   if (kBoundary && contacts_[stage_])  // friction or a lifting gate (boundary.hpp)
-    grid_kernel<D, S, Model, kBoundary, kBoundary, kMembers><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
+    grid_kernel<D, S, Model, kBoundary, kBoundary, kMembers, kKeepMass><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
   else
-    grid_kernel<D, S, Model, kBoundary, false, kMembers><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
+    grid_kernel<D, S, Model, kBoundary, false, kMembers, kKeepMass><<<gb, kGridBlock, 0, stream_>>>(gv, sp_, ctl_);
   if constexpr (kTerrain)
     if (n_terrain_ > 0)
       terrain_kernel<D, S><<<blocks_for(n_terrain_, kGridBlock), kGridBlock, 0, stream_>>>(gv, terrain_, n_terrain_,
@@ -728,7 +729,7 @@ inline std::string CudaRunner<D, S, Model, Shape, kBoundary, kMembers>::config()
     s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GWarp, kMembers>, kP2GBlock);
   else if constexpr (!kMembers)
     s += kernel_info(p2g_name, p2g_kernel<D, S, Model, Shape, kP2GTile, false>, kP2GBlock);
-  s += kernel_info("grid update", grid_kernel<D, S, Model, kBoundary, false, kMembers>, kGridBlock);
+  s += kernel_info("grid update", grid_kernel<D, S, Model, kBoundary, false, kMembers, kKeepMass>, kGridBlock);
   if constexpr (kTerrain)
     if (n_terrain_ > 0) s += kernel_info("terrain friction", terrain_kernel<D, S>, kGridBlock);
   if (split()) {
