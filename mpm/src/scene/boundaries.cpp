@@ -20,7 +20,9 @@ struct Solid {
   const MeshSolid* mesh;  // Shape::Mesh
   double orient = 1;  // polygons: +1 counter-clockwise, -1 clockwise (normals flip)
 
-  Solid(const Obstacle& o, int D, const MeshSolid* m) : ob(o), dim(D), mesh(m) {
+  double deep = 0;        // Shape::Mesh: nodes deeper than this take MeshSolid::deep's normal
+
+  Solid(const Obstacle& o, int D, const MeshSolid* m, double h = 0) : ob(o), dim(D), mesh(m), deep(4 * h) {
     if (ob.shape == Obstacle::Shape::Polygon) {
       double a = 0;
       const size_t n = ob.poly_x.size();
@@ -73,8 +75,13 @@ struct Solid {
     if (ob.shape == Obstacle::Shape::Mesh) {  // inside (winding number), or within tol of a triangle
       const bool in = mesh->inside(x);
       if (tol < 0) return in;
+      // the nearest face within 4 h (beyond a stencil's reach and the force probes' 3 h): a
+      // search to the middle of a large solid would visit most of its triangle grid per node
       double key = 0;
-      if (!mesh->nearest(x, tol, in ? best : tol, key, n, face)) return false;
+      if (!mesh->nearest(x, tol, in ? deep : tol, key, n, face)) {
+        if (!in) return false;
+        mesh->deep(x, key, n, face);
+      }
       if (depth) *depth = key;
       return true;
     }
@@ -262,7 +269,7 @@ void setup_obstacles(const Scene& sc, SceneSetup& su, const ObstacleMeshes& mesh
   const HostParticles& hp = su.particles;
   for (size_t k = 0; k < sc.obstacles.size(); ++k) {
     const Obstacle& ob = sc.obstacles[k];
-    const Solid solid(ob, D, meshes.empty() ? nullptr : meshes[k].get());
+    const Solid solid(ob, D, meshes.empty() ? nullptr : meshes[k].get(), h);
     std::string key;
     const double t = solid.thickness(key);
     if (t < 2 * h * (1 - 1e-9))
@@ -339,7 +346,7 @@ void setup_force_probes(const Scene& sc, SceneSetup& su, const std::vector<Terra
   for (int d = 0; d < D; ++d) hi[d] = su.nodes[d] - 1;
   for (size_t k = 0; k < sc.obstacles.size(); ++k) {
     const Obstacle& ob = sc.obstacles[k];
-    const Solid solid(ob, D, meshes.empty() ? nullptr : meshes[k].get());
+    const Solid solid(ob, D, meshes.empty() ? nullptr : meshes[k].get(), h);
     double point[3] = {0, 0, 0};
     solid.centroid(point);
     for (size_t d = 0; d < ob.moment_point.size(); ++d) point[d] = ob.moment_point[d];

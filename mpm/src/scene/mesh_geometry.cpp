@@ -508,6 +508,21 @@ bool MeshSolid::nearest(const double* p, double tol, double limit, double& key, 
   return true;
 }
 
+void MeshSolid::deep(const double* p, double& key, double* n, int& part) const {
+  thread_local std::vector<MeshCrossing> cr;
+  crossings(1, p[2], p[0], cr);
+  key = std::numeric_limits<double>::max();
+  n[0] = n[2] = 0;
+  n[1] = 1;
+  part = 2;
+  for (const MeshCrossing& c : cr)
+    if (std::fabs(c.t - p[1]) < key) {
+      key = std::fabs(c.t - p[1]);
+      part = part_[c.tri];
+      for (int d = 0; d < 3; ++d) n[d] = -n_[3 * c.tri + d];
+    }
+}
+
 double MeshSolid::thinnest_run(const double* g, double h, double* at, int& axis) const {
   double thin = std::numeric_limits<double>::max();
   std::vector<MeshCrossing> cr;

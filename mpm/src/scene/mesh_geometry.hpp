@@ -49,6 +49,9 @@ class MeshSolid {
   // solid there: the face's, else the angle-weighted pseudo-normal of the nearest edge or
   // corner. Ties go to the lower part, then the lower triangle. False when none is that near.
   bool nearest(const double* p, double tol, double limit, double& key, double* n, int& part) const;
+  // For a point deep inside (no triangle within nearest's limit): the triangle of the crossing
+  // of the line along y nearest to it, its normal into the solid and the distance along y.
+  void deep(const double* p, double& key, double* n, int& part) const;
 
   // The thinnest inside run of the lines along x, y and z through the centres of the cells of a
   // grid (origin g, spacing h) that enters or leaves through a face whose normal lies nearest
