@@ -13,6 +13,7 @@
 #include <granflow/mpm/driver.hpp>
 #include <granflow/mpm/mesh.hpp>
 #include <granflow/mpm/runner.hpp>
+#include <granflow/mpm/scene_file.hpp>
 
 #include "mesh_files.hpp"
 #include "tiny_column.hpp"
@@ -377,4 +378,34 @@ TEST(MpmMesh, UnweldedTrianglesAreOpen) {
   sc.bodies[0] = Body{};
   sc.bodies[0].mesh = mesh_of(test::box_mesh(lo, hi));
   EXPECT_NE(setup_error(sc).find("is not closed: 36 bad edges"), std::string::npos) << setup_error(sc);
+}
+
+// The shipped example's CI copy as a user runs it (mpm/scenes/valley_barrier_ci.toml, the barrier
+// from scripts/make_slit_barrier.py): the slide reaches the STL barrier, which takes a force
+// (x- the upstream faces), and the run writes the force history, the barrier's triangles and
+// the maps.
+TEST(MpmMesh, ValleyIntoSlitBarrierExampleCi) {
+  if (!mesh_reader_available()) GTEST_SKIP() << "built without assimp";
+  const Scene sc = load_scene(GRANFLOW_SOURCE_DIR "/mpm/scenes/valley_barrier_ci.toml");
+  ASSERT_EQ(sc.obstacles.size(), 1u);
+  ASSERT_EQ(sc.obstacles[0].mesh->triangles(), 24);  // two closed boxes
+  const SceneSetup su = make_setup_for_file(sc);
+  const std::string dir = temp_dir("valley_barrier");
+  RunOptions opt;
+  opt.progress = false;
+  opt.out_dir = dir + "/run";
+  auto r = make_cpu_runner(su);
+  const RunSummary s = run(su, *r, opt);
+  ASSERT_TRUE(s.ok) << s.message;
+  ASSERT_EQ(s.forces.at(0).boundary, "slit barrier");
+  std::printf("valley into the slit barrier: %ld points, barrier impulse %.4g N s, peak %.4g N at %.3g s\n",
+              su.particles.n, s.forces[0].impulse, s.forces[0].peak, s.forces[0].t_peak);
+  EXPECT_GT(s.forces[0].impulse, 0.0);
+  double upstream = 0;  // Ix of the x- faces (the flow runs along +x into them)
+  for (const ForceRow& row : s.force_rows)
+    if (row.part >= 0 && su.force_parts[row.part].name == "x-" && su.force_boundaries[row.boundary] == "slit barrier")
+      upstream += row.sums.impulse[0];
+  EXPECT_GT(upstream, 0.0);
+  for (const char* f : {"obstacle_forces.csv", "obstacles.vtu", "maps/deposit_thickness.asc", "maps/max_speed.asc"})
+    EXPECT_TRUE(fs::exists(opt.out_dir + "/" + f)) << f;
 }
