@@ -149,24 +149,7 @@ namespace {
 // mpm_cuda_check's 3D slab (the CI column 8 cm wide between free-slip side walls, released at
 // once) with one obstacle.
 Scene slab(const Obstacle& ob, double duration) {
-  Scene sc = small_column_scene(ModelKind::Frictional);
-  sc.dim = 3;
-  sc.origin = {0.0, 0.0, 0.0};
-  sc.size = {0.40, 0.16, 0.08};
-  sc.gravity = {0.0, -9.81, 0.0};
-  sc.walls[1].position = 0.40;
-  sc.walls.push_back({2, false, 0.0, false, "wall[3].side"});
-  sc.walls.push_back({2, true, 0.08, false, "wall[4].side"});
-  sc.runout_x = {0.0, 0.40};
-  sc.runout_y = {0.0, 0.0};
-  sc.tracks.clear();
-  sc.output.times.clear();
-  sc.bodies[0].box_min.push_back(0.0);
-  sc.bodies[0].box_max.push_back(0.08);
-  Stage st;
-  st.name = "collapse";
-  st.duration = duration;
-  sc.stages = {st};
+  Scene sc = slab_3d_scene(ModelKind::Frictional, ShapeKind::Linear, duration);
   sc.obstacles = {ob};
   return sc;
 }

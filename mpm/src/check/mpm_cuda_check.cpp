@@ -487,25 +487,8 @@ bool column_case(ModelKind model, ShapeKind shape, Precision precision, const ch
 // (obstacle kind "mesh", the 12 triangles its STL would hold, built here: the GPU machine's
 // build has no mesh reader) with mu 0.3, its nodes and normals from the mesh geometry.
 bool obstacle_3d_case(ModelKind model, ShapeKind shape, const char* cuda, bool short_run, double tol, bool mesh = false) {
-  Scene sc = small_column_scene(model, shape);
+  Scene sc = slab_3d_scene(model, shape, short_run ? 0.1 : 0.25);
   sc.name += mesh ? ", 3D slab, low box as a mesh and pier" : ", 3D slab, low box and pier";
-  sc.dim = 3;
-  sc.origin = {0.0, 0.0, 0.0};
-  sc.size = {0.40, 0.16, 0.08};
-  sc.gravity = {0.0, -9.81, 0.0};
-  sc.walls[1].position = 0.40;
-  sc.walls.push_back({2, false, 0.0, false, "wall[3].side"});
-  sc.walls.push_back({2, true, 0.08, false, "wall[4].side"});
-  sc.runout_x = {0.0, 0.40};
-  sc.runout_y = {0.0, 0.0};
-  sc.tracks.clear();
-  sc.output.times.clear();
-  sc.bodies[0].box_min.push_back(0.0);
-  sc.bodies[0].box_max.push_back(0.08);
-  Stage st;
-  st.name = "collapse";
-  st.duration = short_run ? 0.1 : 0.25;
-  sc.stages = {st};
   Obstacle box;
   box.name = "low box";
   box.key = "obstacle[0]";

@@ -312,5 +312,8 @@ Scene column_scene(double h, double dt, ModelKind model, ShapeKind shape, double
 Scene flume_scene(double h, double dt, ModelKind model, ShapeKind shape, double flow_time);
 // The CI column collapse: 10 mm grid, 4 points per cell, dt 5e-5 s, 0.4 s of collapse.
 Scene small_column_scene(ModelKind model, ShapeKind shape = ShapeKind::Linear);
+// The CI column as a 3D slab 8 cm wide between free-slip side walls (grid 40 x 16 x 8 cm),
+// released at once for `duration` (one stage): mpm_cuda_check's obstacle scene, no obstacle yet.
+Scene slab_3d_scene(ModelKind model, ShapeKind shape, double duration);
 
 }  // namespace granflow::mpm
