@@ -304,6 +304,10 @@ void run_mpm(const MpmOptions& o) {
       std::fprintf(stderr, "  body[%zu]: seeded volume %.6g m^3, between the surfaces %.6g m^3 (%+.2f %%)\n", b,
                    su.seeded_volume[b], su.geometric_volume[b],
                    su.geometric_volume[b] > 0 ? 100 * (su.seeded_volume[b] / su.geometric_volume[b] - 1) : 0.0);
+    else if (sc.bodies[b].is_mesh())  // against the mesh's own volume (docs/mpm_meshes.md)
+      std::fprintf(stderr, "  body[%zu]: seeded volume %.6g m^3, the mesh's own %.6g m^3 (%+.2f %%)\n", b,
+                   su.seeded_volume[b], su.geometric_volume[b],
+                   su.geometric_volume[b] > 0 ? 100 * (su.seeded_volume[b] / su.geometric_volume[b] - 1) : 0.0);
   if (resume)
     std::fprintf(stderr, "  restarting at t = %.6g s (step %ld) from %s/%s\n", resume->loop.t, resume->loop.step,
                  out.c_str(), mpm::kCheckpointFile);

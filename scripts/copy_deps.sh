@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
 # Copies the header-only dependencies into .deps/include (git-ignored) for the GPU machine.
+# assimp is not carried: the GPU-only build has no mesh reader (mesh keys refused, naming
+# libassimp-dev); mesh obstacles reach the kernels as held nodes made on the host (mpm_meshes.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mkdir -p .deps/include

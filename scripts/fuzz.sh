@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets with clang (-fsanitize=fuzzer,address,undefined) in build-fuzz/
 # and runs each for a bounded time, starting from the committed seed corpus.
-#   scripts/fuzz.sh [SECONDS] [TARGET...]     # default: 60 s each; csv parameter_set element_test
+#   scripts/fuzz.sh [SECONDS] [TARGET...]     # default: 60 s each; csv parameter_set element_test mesh
 # Environment:
 #   FUZZ_RUNS=N     stop each target after N executions (SECONDS still caps the time)
 #   FUZZ_WORKERS=N  parallel fuzzing processes per target (libFuzzer -fork=N), default 1
@@ -16,7 +16,7 @@ secs=${1:-60}
 [ $# -gt 0 ] && shift
 targets=("$@")
 # csv first: its ASan replay makes it the longest, the other two share the second core meanwhile
-[ ${#targets[@]} -eq 0 ] && targets=(csv parameter_set element_test)
+[ ${#targets[@]} -eq 0 ] && targets=(csv parameter_set element_test mesh)
 jobs=$(nproc 2>/dev/null || echo 2)
 build=()
 for t in "${targets[@]}"; do

@@ -24,6 +24,7 @@ if [ "$tests" -eq 1 ]; then
   # already pulls in libopenmpi-dev and gfortran, they are named for what the tests use
   packages+=(libopenmpi-dev openmpi-bin)
   packages+=(libgdal-dev)  # optional: GeoTIFF and other terrain rasters through GDAL (docs/mpm_terrain.md)
+  packages+=(libassimp-dev)  # optional: STL, OBJ and PLY meshes through assimp (docs/mpm_meshes.md)
   packages+=(python3-vtk9)  # test dependency: VTK's reader on the frames (tests/mpm/read_frame_vtk.py)
 fi
 missing=()

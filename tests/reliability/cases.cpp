@@ -5,6 +5,7 @@
 #include "harness.hpp"
 
 #include <granflow/mpm/checkpoint.hpp>
+#include <granflow/mpm/mesh.hpp>
 
 namespace reliability {
 
@@ -107,6 +108,58 @@ const std::string kTerrainScene =
     "duration = 0.002\n"                        // 22
     "[output]\n"                                // 23
     "series_dt = 0.001\n";                      // 24
+
+// A 3D scene of a body inside a mesh (m.stl: mesh_cube(), a 4 cm cube at 2 to 6 cm).
+const std::string kMeshScene =
+    "name = \"reliability mesh\"\n"       // 1
+    "[grid]\n"                              // 2
+    "dim = 3\n"                             // 3
+    "origin = [0.0, 0.0, 0.0]\n"            // 4
+    "size = [0.1, 0.1, 0.1]\n"              // 5
+    "h = 0.02\n"                            // 6
+    "[particles]\n"                         // 7
+    "per_cell = 8\n"                        // 8
+    "[time]\n"                              // 9
+    "dt = 1e-4\n"                           // 10
+    "[material]\n"                          // 11
+    "parameters = \"column_collapse\"\n"    // 12
+    "model = \"frictional\"\n"              // 13
+    "[[wall]]\n"                            // 14
+    "side = \"y-\"\n"                       // 15
+    "[[body]]\n"                            // 16
+    "mesh = \"m.stl\"\n"                    // 17
+    "[[stage]]\n"                           // 18
+    "duration = 0.002\n"                    // 19
+    "[output]\n"                            // 20
+    "series_dt = 0.001\n";                  // 21
+
+// An ASCII STL of the box [lo, hi]^3 (lo, hi per axis equal), triangles `drop` left out and
+// `flip` turned, a second box `shift` along the diagonal when nonzero; `nan_vertex` replaces the
+// first vertex line.
+std::string mesh_cube(double lo = 0.02, double hi = 0.06, int drop = -1, int flip = -1, double shift = 0,
+                      const std::string& nan_vertex = "") {
+  const int q[6][4][3] = {{{0, 0, 0}, {0, 0, 1}, {0, 1, 1}, {0, 1, 0}}, {{1, 0, 0}, {1, 1, 0}, {1, 1, 1}, {1, 0, 1}},
+                          {{0, 0, 0}, {1, 0, 0}, {1, 0, 1}, {0, 0, 1}}, {{0, 1, 0}, {0, 1, 1}, {1, 1, 1}, {1, 1, 0}},
+                          {{0, 0, 0}, {0, 1, 0}, {1, 1, 0}, {1, 0, 0}}, {{0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}};
+  std::string s = "solid cube\n";
+  int t = 0;
+  for (double off : shift != 0 ? std::vector<double>{0, shift} : std::vector<double>{0})
+    for (const auto& f : q)
+      for (int half = 0; half < 2; ++half, ++t) {
+        if (t == drop) continue;
+        int c[3] = {0, half ? 2 : 1, half ? 3 : 2};
+        if (t == flip) std::swap(c[1], c[2]);
+        s += "facet normal 0 0 0\nouter loop\n";
+        for (int k : c) {
+          std::string v = "vertex";
+          for (int d = 0; d < 3; ++d) v += " " + std::to_string((f[k][d] ? hi : lo) + off);
+          s += (t == 0 && k == 0 && !nan_vertex.empty() ? nan_vertex : v) + "\n";
+        }
+        s += "endloop\nendfacet\n";
+      }
+  return s + "endsolid cube\n";
+}
+std::string MS(const std::string& from, const std::string& to) { return edit(kMeshScene, from, to); }
 
 // The terrain raster: cell centres at scene x, z = -0.0125 to 0.1125 (row 0 the northern, z =
 // 0.1125), NODATA at (row, col) where asked; the header is 6 lines, row r is line 7 + r.
@@ -216,8 +269,33 @@ Files default_files() {
           {"t3.toml", kTerrainScene}, {"dem.asc", dem()}};
 }
 
-std::vector<Case> all_cases() {
+// Bodies and obstacles from meshes (docs/mpm_meshes.md); only where the build reads meshes.
+std::vector<Case> mesh_cases() {
+  const std::vector<std::string> m3 = {"mpm", "m3.toml", "--out", "o", "--no-png", "--quiet"};
+  const std::string plate = "[[obstacle]]\nkind = \"mesh\"\nname = \"plate\"\nmesh = \"p.stl\"\n";  // lines 22-25
   return {
+      {"mesh_open", {{"m3.toml", kMeshScene}, {"m.stl", mesh_cube(0.02, 0.06, 3)}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "m.stl: is not closed: 3 bad edges", "belongs to one triangle only", "from (0.06, 0.02, 0.02)"}},
+      {"mesh_flipped_face", {{"m3.toml", kMeshScene}, {"m.stl", mesh_cube(0.02, 0.06, -1, 3)}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "m.stl: is not consistently oriented: 3 bad edges", "a flipped face"}},
+      {"mesh_self_intersecting", {{"m3.toml", kMeshScene}, {"m.stl", mesh_cube(0.02, 0.06, -1, -1, 0.02)}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "m.stl: is self-intersecting: 18 pairs of triangles cross", "at (0.06, 0.04, 0.04)"}},
+      {"mesh_empty", {{"m3.toml", kMeshScene}, {"m.stl", ""}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "m.stl: is empty (0 bytes): an empty mesh"}},
+      {"mesh_no_triangle", {{"m3.toml", kMeshScene}, {"m.stl", "solid empty\nendsolid empty\n"}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "m.stl: "}},
+      {"mesh_folder", {{"m3.toml", MS("\"m.stl\"", "\".\"")}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", ".: is a folder, not a mesh file"}},
+      {"mesh_missing_file", {{"m3.toml", kMeshScene}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "m.stl: no such file"}},
+      {"mesh_nan_vertex", {{"m3.toml", kMeshScene}, {"m.stl", mesh_cube(0.02, 0.06, -1, -1, 0, "vertex nan 0.02 0.02")}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "m.stl: vertex 0", "is not a finite number (NaN or infinite)"}},
+      {"mesh_all_degenerate", {{"m3.toml", kMeshScene}, {"m.stl", "solid s\nfacet normal 0 0 0\nouter loop\nvertex 0.02 0.02 0.02\nvertex 0.04 0.02 0.02\nvertex 0.06 0.02 0.02\nendloop\nendfacet\nendsolid s\n"}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "m.stl: all 1 triangles are degenerate (no area)"}},
+      {"mesh_out_of_grid", {{"m3.toml", MS("mesh = \"m.stl\"\n", "mesh = \"m.stl\"\noffset = [0.08, 0.0, 0.0]\n")}, {"m.stl", mesh_cube()}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "the placed mesh (x [0.1, 0.14], y [0.02, 0.06], z [0.02, 0.06]) lies outside the grid", "move it (offset)"}},
+      {"mesh_in_millimetres", {{"m3.toml", kMeshScene}, {"m.stl", mesh_cube(20, 60)}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "lies outside the grid", "400 times the grid's size", "scale = 0.001"}},
+      {"mesh_bad_scale", {{"m3.toml", MS("mesh = \"m.stl\"\n", "mesh = \"m.stl\"\nscale = -1\n")}, {"m.stl", mesh_cube()}}, m3, kInput, {"m3.toml:18", "'body[0].scale'", "> 0"}},
+      {"mesh_in_2d_scene", {{"scene.toml", S("min = [0.0, 0.0]\nmax = [0.1, 0.06]\n", "mesh = \"m.stl\"\n")}, {"m.stl", mesh_cube()}}, kMpm, kInput, {"scene.toml:14", "'body[0].mesh'", "meshes need grid.dim = 3"}},
+      {"mesh_obstacle_in_2d_scene", {{"scene.toml", kScene + plate}, {"p.stl", mesh_cube()}}, kMpm, kInput, {"'obstacle[0].kind'", "\"mesh\" needs grid.dim = 3"}},
+      {"mesh_obstacle_thin", {{"m3.toml", kMeshScene + plate}, {"m.stl", mesh_cube()}, {"p.stl", mesh_cube(0.065, 0.095)}}, m3, kInput, {"m3.toml:25", "'obstacle[0].mesh'", "obstacle 'plate' is 0.03 m thick along x at (", "less than two grid cells (2 h = 0.04 m)"}},
+      {"mesh_in_ensemble", {{"m3.toml", kMeshScene}, {"m.stl", mesh_cube()}, {"d.toml", design("frictional.phi_c_deg", "range = [18.0, 22.0]")}}, {"ensemble", "m3.toml", "d.toml", "--out", "o", "--no-png", "--quiet"}, kInput, {"d.toml: body[0].mesh: ensembles take no meshes; a scene with a mesh runs alone"}},
+  };
+}
+
+std::vector<Case> all_cases() {
+  std::vector<Case> mesh = granflow::mpm::mesh_reader_available() ? mesh_cases() : std::vector<Case>{};
+  std::vector<Case> cases = {
       // ---- parameter-set TOML ------------------------------------------------------------
       {"param_typo_missing_key", {{"p.toml", P("phi_c_deg", "phi_c_dg")}}, kEl, kInput, {"p.toml", "'frictional.phi_c_deg'", "required key is missing", "frictional.phi_c_dg", "a typo?"}},
       {"param_unknown_key", {{"p.toml", P("mu_p = 0.1\n", "mu_p = 0.1\ncolour = 1\n")}}, kEl, kInput, {"p.toml:9", "unknown key 'collisional.colour'", "allowed here"}},
@@ -472,6 +550,8 @@ std::vector<Case> all_cases() {
       {"figures_data_dir_wrong", {}, {"figures", "--out", "figs"}, kInput, {"GRANFLOW_DATA_DIR = '/nonexistent/data'"}, {{"GRANFLOW_DATA_DIR", "/nonexistent/data"}}},
       {"bench_mpm_set_unknown_table", {}, {"bench", "mpm", "scene.toml", "--set", "gird.h=0.01"}, kInput, {"scene.toml: --set 'gird.h=0.01': unknown key 'gird'"}},
   };
+  cases.insert(cases.end(), mesh.begin(), mesh.end());
+  return cases;
 }
 
 }  // namespace reliability

@@ -483,27 +483,12 @@ bool column_case(ModelKind model, ShapeKind shape, Precision precision, const ch
 
 // 3D (GRANFLOW_MPM_CUDA_3D; skipped, true, without it): the CI column as a slab 8 cm wide
 // between free-slip side walls, released at once, into a low box (no-slip) and a pier (mu 0.3):
-// every boundary's impulse on both back ends, as above.
-bool obstacle_3d_case(ModelKind model, ShapeKind shape, const char* cuda, bool short_run, double tol) {
-  Scene sc = small_column_scene(model, shape);
-  sc.name += ", 3D slab, low box and pier";
-  sc.dim = 3;
-  sc.origin = {0.0, 0.0, 0.0};
-  sc.size = {0.40, 0.16, 0.08};
-  sc.gravity = {0.0, -9.81, 0.0};
-  sc.walls[1].position = 0.40;
-  sc.walls.push_back({2, false, 0.0, false, "wall[3].side"});
-  sc.walls.push_back({2, true, 0.08, false, "wall[4].side"});
-  sc.runout_x = {0.0, 0.40};
-  sc.runout_y = {0.0, 0.0};
-  sc.tracks.clear();
-  sc.output.times.clear();
-  sc.bodies[0].box_min.push_back(0.0);
-  sc.bodies[0].box_max.push_back(0.08);
-  Stage st;
-  st.name = "collapse";
-  st.duration = short_run ? 0.1 : 0.25;
-  sc.stages = {st};
+// every boundary's impulse on both back ends, as above. mesh: the low box as a triangle mesh
+// (obstacle kind "mesh", the 12 triangles its STL would hold, built here: the GPU machine's
+// build has no mesh reader) with mu 0.3, its nodes and normals from the mesh geometry.
+bool obstacle_3d_case(ModelKind model, ShapeKind shape, const char* cuda, bool short_run, double tol, bool mesh = false) {
+  Scene sc = slab_3d_scene(model, shape, short_run ? 0.1 : 0.25);
+  sc.name += mesh ? ", 3D slab, low box as a mesh and pier" : ", 3D slab, low box and pier";
   Obstacle box;
   box.name = "low box";
   box.key = "obstacle[0]";
@@ -511,6 +496,18 @@ bool obstacle_3d_case(ModelKind model, ShapeKind shape, const char* cuda, bool s
   box.shape = Obstacle::Shape::Box;
   box.box_min = {0.21, 0.0, 0.0};  // reached within the short run's 0.1 s
   box.box_max = {0.24, 0.03, 0.04};
+  if (mesh) {
+    auto m = std::make_shared<TriMesh>();
+    m->file = "low box (in memory)";
+    for (int v = 0; v < 8; ++v)  // vertex v: x from bit 0, y from bit 1, z from bit 2
+      for (int d = 0; d < 3; ++d) m->xyz.push_back((v >> d & 1) ? box.box_max[d] : box.box_min[d]);
+    m->tri = {0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5, 0, 1, 5, 0, 5, 4,  // x-, x+, y-
+              2, 6, 7, 2, 7, 3, 0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6};  // y+, z-, z+ (outward)
+    box.kind = "mesh";
+    box.shape = Obstacle::Shape::Mesh;
+    box.mesh = m;
+    box.mu = 0.3;
+  }
   Obstacle pier = pier_obstacle("pier", "obstacle[1]", {0.27, 0.06}, 0.02, 0.0, 0.06);
   pier.mu = 0.3;
   sc.obstacles = {box, pier};
@@ -617,14 +614,21 @@ int main(int argc, char** argv) {
                         {ModelKind::Frictional, ShapeKind::Linear, false, "graphs off", true}};
   // --short: 0.1 s of collapse; --ensembles: the ensemble cases only (e.g. under compute-sanitizer)
   // --materials: the cases of several materials only; --obstacles: the obstacle cases only
-  // --slabs: the cases of one scene split over GPUs only
+  // --slabs: the cases of one scene split over GPUs only; --meshes: the mesh obstacle cases only
   bool short_run = false, ensembles_only = false, materials_only = false, obstacles_only = false, slabs_only = false;
+  bool meshes_only = false;
   for (int i = 1; i < argc; ++i) {
+    meshes_only = meshes_only || std::strcmp(argv[i], "--meshes") == 0;
     slabs_only = slabs_only || std::strcmp(argv[i], "--slabs") == 0;
     short_run = short_run || std::strcmp(argv[i], "--short") == 0;
     ensembles_only = ensembles_only || std::strcmp(argv[i], "--ensembles") == 0;
     materials_only = materials_only || std::strcmp(argv[i], "--materials") == 0;
     obstacles_only = obstacles_only || std::strcmp(argv[i], "--obstacles") == 0;
+  }
+  if (meshes_only) {
+    fails += obstacle_3d_case(ModelKind::Frictional, ShapeKind::Linear, "", short_run, tol, true) ? 0 : 1;
+    fails += obstacle_3d_case(ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, "sort 1, graphs off", short_run, tol, true) ? 0 : 1;
+    return fails == 0 ? 0 : 1;
   }
   if (!ensembles_only && !obstacles_only && !materials_only) {
     using MK = ModelKind;
@@ -668,6 +672,7 @@ int main(int argc, char** argv) {
     fails += obstacle_case(ModelKind::Frictional, ShapeKind::QuadraticBSpline, 0.3, "sort 1, graphs off", short_run, tol) ? 0 : 1;
     fails += obstacle_3d_case(ModelKind::Frictional, ShapeKind::Linear, "", short_run, tol) ? 0 : 1;
     fails += obstacle_3d_case(ModelKind::PhaseTransition, ShapeKind::QuadraticBSpline, "sort 1, graphs off", short_run, tol) ? 0 : 1;
+    fails += obstacle_3d_case(ModelKind::Frictional, ShapeKind::QuadraticBSpline, "", short_run, tol, true) ? 0 : 1;
   }
   if (obstacles_only) return fails == 0 ? 0 : 1;
   for (const Case& c : cases) {

@@ -36,6 +36,12 @@ SceneSetup make_ensemble_setup(const std::vector<SceneSetup>& members) {
   const long n = m0.particles.n;
   if (s0.terrain)  // terrain is 3D; ensembles are compiled for 2D scenes
     throw SceneError("terrain", "ensembles run 2D scenes only; a scene with terrain runs alone (granflow mpm)");
+  for (size_t b = 0; b < s0.bodies.size(); ++b)
+    if (s0.bodies[b].is_mesh())
+      throw SceneError("body[" + std::to_string(b) + "].mesh", "ensembles take no meshes; a scene with a mesh runs alone (granflow mpm)");
+  for (const Obstacle& o : s0.obstacles)
+    if (o.shape == Obstacle::Shape::Mesh)
+      throw SceneError(o.key + ".mesh", "ensembles take no meshes; a scene with a mesh runs alone (granflow mpm)");
   for (int k = 1; k < nm; ++k) {
     const SceneSetup& m = members[k];
     const Scene& s = m.scene;

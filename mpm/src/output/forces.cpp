@@ -145,6 +145,11 @@ void ForceRecorder::write_geometry(const std::string& dir, const Scene& sc) {
           c.push_back(point(x1 ? b[0] : a[0], y1 ? b[1] : a[1], z ? b[2] : a[2]));
         }
       cell(c, 12);  // VTK_HEXAHEDRON
+    } else if (ob.shape == Obstacle::Shape::Mesh) {  // its triangles
+      const long base = static_cast<long>(pts.size() / 3);
+      pts.insert(pts.end(), ob.mesh->xyz.begin(), ob.mesh->xyz.end());
+      for (size_t t = 0; t + 2 < ob.mesh->tri.size(); t += 3)
+        cell({base + ob.mesh->tri[t], base + ob.mesh->tri[t + 1], base + ob.mesh->tri[t + 2]}, 5);  // VTK_TRIANGLE
     } else {  // a 48-sided prism: bottom and top polygons and the side quads
       const int n = 48;
       const long base = static_cast<long>(pts.size() / 3);

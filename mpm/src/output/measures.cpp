@@ -129,7 +129,7 @@ ConsolidationCheck check_consolidation(const Frame& fr, const SceneSetup& su) {
   // with rho g depth where rho is the current bulk density integrated from the top.
   ConsolidationCheck c;
   const Scene& sc = su.scene;
-  if (sc.bodies.empty() || sc.bodies[0].is_polygon() || sc.bodies[0].is_release()) return c;  // boxes only
+  if (sc.bodies.empty() || sc.bodies[0].is_polygon() || sc.bodies[0].is_release() || sc.bodies[0].is_mesh()) return c;  // boxes only
   const Body& b = sc.bodies[0];
   const long n = fr.n;
   const double xa = b.box_min[0] + 0.25 * (b.box_max[0] - b.box_min[0]);

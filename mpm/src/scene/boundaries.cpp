@@ -6,6 +6,7 @@
 #include <limits>
 #include <string>
 
+#include "scene/mesh_geometry.hpp"
 #include "scene/setup_common.hpp"
 
 namespace granflow::mpm::detail {
@@ -16,9 +17,12 @@ namespace {
 struct Solid {
   const Obstacle& ob;
   int dim;
+  const MeshSolid* mesh;  // Shape::Mesh
   double orient = 1;  // polygons: +1 counter-clockwise, -1 clockwise (normals flip)
 
-  explicit Solid(const Obstacle& o, int D) : ob(o), dim(D) {
+  double deep = 0;        // Shape::Mesh: nodes deeper than this take MeshSolid::deep's normal
+
+  Solid(const Obstacle& o, int D, const MeshSolid* m, double h = 0) : ob(o), dim(D), mesh(m), deep(4 * h) {
     if (ob.shape == Obstacle::Shape::Polygon) {
       double a = 0;
       const size_t n = ob.poly_x.size();
@@ -30,12 +34,14 @@ struct Solid {
   int faces() const {
     switch (ob.shape) {
       case Obstacle::Shape::Polygon: return static_cast<int>(ob.poly_x.size());
-      case Obstacle::Shape::Box: return 6;
+      case Obstacle::Shape::Box:
+      case Obstacle::Shape::Mesh: return 6;  // a mesh's triangles by their outward normal's axis and sign
       default: return 3;
     }
   }
   std::string face_name(int f) const {
-    if (ob.shape == Obstacle::Shape::Box) return std::string(1, static_cast<char>('x' + f / 2)) + (f % 2 ? "+" : "-");
+    if (ob.shape == Obstacle::Shape::Box || ob.shape == Obstacle::Shape::Mesh)
+      return std::string(1, static_cast<char>('x' + f / 2)) + (f % 2 ? "+" : "-");
     if (ob.shape == Obstacle::Shape::Cylinder) return f == 0 ? "side" : (f == 1 ? "bottom" : "top");
     if (ob.kind == "box") return std::vector<std::string>{"y-", "x+", "y+", "x-"}[f];
     if (ob.kind == "segment") return std::vector<std::string>{"right", "to", "left", "from"}[f];
@@ -66,6 +72,19 @@ struct Solid {
   // depth: the distance to that face.
   bool hold(const double* x, double tol, double* n, int& face, double* depth = nullptr) const {
     double best = std::numeric_limits<double>::max();
+    if (ob.shape == Obstacle::Shape::Mesh) {  // inside (winding number), or within tol of a triangle
+      const bool in = mesh->inside(x);
+      if (tol < 0) return in;
+      // the nearest face within 4 h (beyond a stencil's reach and the force probes' 3 h): a
+      // search to the middle of a large solid would visit most of its triangle grid per node
+      double key = 0;
+      if (!mesh->nearest(x, tol, in ? deep : tol, key, n, face)) {
+        if (!in) return false;
+        mesh->deep(x, key, n, face);
+      }
+      if (depth) *depth = key;
+      return true;
+    }
     if (ob.shape == Obstacle::Shape::Polygon) {
       double nn[3];
       bool near = false;
@@ -119,6 +138,7 @@ struct Solid {
   // Narrowest width (a polygon: the smallest over its edges of the farthest vertex from the
   // edge's line, exact for convex ones) and the key that sets it.
   double thickness(std::string& key) const {
+    if (ob.shape == Obstacle::Shape::Mesh) return std::numeric_limits<double>::max();  // mesh_solids' runs
     if (ob.shape == Obstacle::Shape::Box) {
       key = ob.key + ".max";
       double t = std::numeric_limits<double>::max();
@@ -147,7 +167,9 @@ struct Solid {
   // The default point of the moments: the centroid.
   void centroid(double* c) const {
     c[0] = c[1] = c[2] = 0;
-    if (ob.shape == Obstacle::Shape::Box) {
+    if (ob.shape == Obstacle::Shape::Mesh) {
+      mesh->centroid(c);
+    } else if (ob.shape == Obstacle::Shape::Box) {
       for (int d = 0; d < 3; ++d) c[d] = 0.5 * (ob.box_min[d] + ob.box_max[d]);
     } else if (ob.shape == Obstacle::Shape::Cylinder) {
       c[0] = ob.center[0];
@@ -180,6 +202,9 @@ struct Solid {
         bmin[d] = ob.box_min[d];
         bmax[d] = ob.box_max[d];
       }
+    } else if (ob.shape == Obstacle::Shape::Mesh) {
+      std::copy(mesh->lo(), mesh->lo() + 3, bmin);
+      std::copy(mesh->hi(), mesh->hi() + 3, bmax);
     } else {
       bmin[0] = ob.center[0] - ob.radius;
       bmax[0] = ob.center[0] + ob.radius;
@@ -216,12 +241,35 @@ void for_nodes(const SceneSetup& su, int D, const int* lo, const int* hi, double
 
 }  // namespace
 
-void setup_obstacles(const Scene& sc, SceneSetup& su) {
+ObstacleMeshes obstacle_meshes(const Scene& sc, const SceneSetup& su) {
+  ObstacleMeshes out(sc.obstacles.size());
+  for (size_t k = 0; k < sc.obstacles.size(); ++k) {
+    const Obstacle& ob = sc.obstacles[k];
+    if (ob.shape != Obstacle::Shape::Mesh) continue;
+    const std::string key = ob.key + ".mesh";
+    if (sc.dim != 3 || !ob.mesh) fail(key, "a mesh obstacle needs grid.dim = 3 and a mesh");
+    auto m = std::make_shared<const MeshSolid>(*ob.mesh, key);
+    mesh_in_grid(*m, sc, key);
+    double at[3] = {0, 0, 0};
+    int axis = 0;
+    const double t = m->thinnest_run(su.origin.data(), sc.h, at, axis);
+    if (t < 2 * sc.h * (1 - 1e-9))
+      fail(key, "obstacle '" + ob.name + "' is " + fmt(t) + " m thick along " + std::string(1, char('x' + axis)) +
+                    " at (" + fmt(at[0]) + ", " + fmt(at[1]) + ", " + fmt(at[2]) +
+                    "), less than two grid cells (2 h = " + fmt(2 * sc.h) +
+                    " m): material on both sides would share its nodes (the rule: docs/mpm_meshes.md)");
+    out[k] = std::move(m);
+  }
+  return out;
+}
+
+void setup_obstacles(const Scene& sc, SceneSetup& su, const ObstacleMeshes& meshes) {
   const int D = sc.dim;
   const double h = sc.h, tol = 1e-9 * h;
   const HostParticles& hp = su.particles;
-  for (const Obstacle& ob : sc.obstacles) {
-    const Solid solid(ob, D);
+  for (size_t k = 0; k < sc.obstacles.size(); ++k) {
+    const Obstacle& ob = sc.obstacles[k];
+    const Solid solid(ob, D, meshes.empty() ? nullptr : meshes[k].get(), h);
     std::string key;
     const double t = solid.thickness(key);
     if (t < 2 * h * (1 - 1e-9))
@@ -260,7 +308,8 @@ void setup_obstacles(const Scene& sc, SceneSetup& su) {
                    [](const ObstacleNode& a, const ObstacleNode& b) { return a.node < b.node; });
 }
 
-void setup_force_probes(const Scene& sc, SceneSetup& su, const std::vector<TerrainNode>& ground) {
+void setup_force_probes(const Scene& sc, SceneSetup& su, const std::vector<TerrainNode>& ground,
+                        const ObstacleMeshes& meshes) {
   const int D = sc.dim;
   const double h = sc.h, tol = 1e-9 * h;
   if (!sc.output.moment_point.empty() && static_cast<int>(sc.output.moment_point.size()) != D)
@@ -295,8 +344,9 @@ void setup_force_probes(const Scene& sc, SceneSetup& su, const std::vector<Terra
   const int lo[3] = {0, 0, 0};
   int hi[3] = {0, 0, 0};
   for (int d = 0; d < D; ++d) hi[d] = su.nodes[d] - 1;
-  for (const Obstacle& ob : sc.obstacles) {
-    const Solid solid(ob, D);
+  for (size_t k = 0; k < sc.obstacles.size(); ++k) {
+    const Obstacle& ob = sc.obstacles[k];
+    const Solid solid(ob, D, meshes.empty() ? nullptr : meshes[k].get(), h);
     double point[3] = {0, 0, 0};
     solid.centroid(point);
     for (size_t d = 0; d < ob.moment_point.size(); ++d) point[d] = ob.moment_point[d];

@@ -2,20 +2,30 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <granflow/mpm/runner.hpp>
 
 namespace granflow::mpm::detail {
 
+class MeshSolid;
+// Per obstacle its checked mesh (Shape::Mesh), else null.
+using ObstacleMeshes = std::vector<std::shared_ptr<const MeshSolid>>;
+
+// Checks the mesh obstacles once (closed, oriented, no crossings, in the grid, the thin-plate
+// rule: docs/mpm_meshes.md) for the two calls below; scenes without a mesh get nulls only.
+ObstacleMeshes obstacle_meshes(const Scene& sc, const SceneSetup& su);
+
 // Checks the scene's obstacles (size against the grid, material inside) and lists their nodes
 // with the normal of the nearest face (SceneSetup::obstacle_nodes). Needs the particles seeded.
-void setup_obstacles(const Scene& sc, SceneSetup& su);
+void setup_obstacles(const Scene& sc, SceneSetup& su, const ObstacleMeshes& meshes);
 
 // Lists the nodes each boundary holds as force probes, grouped in parts (output.forces): the
 // obstacles in scene order, the walls in scene order, the base, the terrain (its nodes with the
 // ground's normal); a node held by several counts for the first of them. `ground` lists every node on or below
 // the terrain (empty without one).
-void setup_force_probes(const Scene& sc, SceneSetup& su, const std::vector<TerrainNode>& ground);
+void setup_force_probes(const Scene& sc, SceneSetup& su, const std::vector<TerrainNode>& ground,
+                        const ObstacleMeshes& meshes);
 
 }  // namespace granflow::mpm::detail

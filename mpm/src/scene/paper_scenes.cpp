@@ -90,6 +90,28 @@ Scene column_scene(double h, double dt, ModelKind model, ShapeKind shape, double
 
 Scene small_column_scene(ModelKind model, ShapeKind shape) { return column_scene(0.01, 5e-5, model, shape, 0.4); }
 
+Scene slab_3d_scene(ModelKind model, ShapeKind shape, double duration) {
+  Scene sc = small_column_scene(model, shape);
+  sc.dim = 3;
+  sc.origin = {0.0, 0.0, 0.0};
+  sc.size = {0.40, 0.16, 0.08};
+  sc.gravity = {0.0, -9.81, 0.0};
+  sc.walls[1].position = 0.40;
+  sc.walls.push_back({2, false, 0.0, false, "wall[3].side"});
+  sc.walls.push_back({2, true, 0.08, false, "wall[4].side"});
+  sc.runout_x = {0.0, 0.40};
+  sc.runout_y = {0.0, 0.0};
+  sc.tracks.clear();
+  sc.output.times.clear();
+  sc.bodies[0].box_min.push_back(0.0);
+  sc.bodies[0].box_max.push_back(0.08);
+  Stage st;
+  st.name = "collapse";
+  st.duration = duration;
+  sc.stages = {st};
+  return sc;
+}
+
 Scene flume_scene(double h, double dt, ModelKind model, ShapeKind shape, double flow_time) {
   const double c45 = std::cos(M_PI / 4);
   const double H = 2.30 * c45, run = 0.5 * c45, thick = 0.30 / c45;

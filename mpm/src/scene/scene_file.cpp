@@ -90,6 +90,32 @@ std::string beside(const std::string& scene, const std::string& file) {
   return std::filesystem::exists(rel) || !std::filesystem::exists(p) ? rel.string() : file;
 }
 
+// A mesh key (body.mesh, an obstacle's mesh) read and placed: scale, rotation (x, then y, then z,
+// degrees), offset (docs/mpm_meshes.md). 3D only; the geometry's checks come at set-up.
+std::shared_ptr<const mpm::TriMesh> placed_mesh(TomlTable& t, const std::string& scene, int dim) {
+  if (dim != 3) t.fail("mesh", "meshes need grid.dim = 3 (a 2D scene takes polygons)");
+  const std::string file = t.string("mesh");
+  mpm::MeshPlacement p;
+  p.scale = t.number_or("scale", 1.0, Bounds::positive());
+  if (t.has("rotation")) {
+    const std::vector<double> r = vec(t, "rotation", 3);
+    std::copy(r.begin(), r.end(), p.rotation.begin());
+  }
+  if (t.has("offset")) {
+    const std::vector<double> o = vec(t, "offset", 3);
+    std::copy(o.begin(), o.end(), p.offset.begin());
+  }
+  auto m = std::make_shared<mpm::TriMesh>();
+  try {
+    *m = mpm::read_mesh(beside(scene, file));
+  } catch (const InputError& e) {
+    t.fail("mesh", e.what());
+  }
+  m->file = file;
+  mpm::place_mesh(*m, p);
+  return m;
+}
+
 // One part of a --set key: a table or key name, with an index into an array of tables.
 struct KeyPart {
   std::string name;
@@ -414,7 +440,9 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
   sc.lines["body"] = bodies.front().line();
   for (auto& b : bodies) {
     sc.lines["body[" + std::to_string(sc.bodies.size()) + "]"] = b.line();
-    for (const char* k : {"min", "max", "polygon_x", "polygon_y", "top", "bottom", "plan_x", "plan_z"}) note(b, k);
+    for (const char* k : {"min", "max", "polygon_x", "polygon_y", "top", "bottom", "plan_x", "plan_z", "mesh", "scale",
+                          "rotation", "offset"})
+      note(b, k);
     mpm::Body body;
     if (b.has("material")) {
       const std::string name = b.string("material");
@@ -431,7 +459,11 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
                                      std::to_string(sc.material_count()) + " materials");
     }
     note(b, "material");
-    if (b.has("top") || b.has("bottom") || b.has("plan_x") || b.has("plan_z")) {  // a release volume
+    if (b.has("mesh")) {  // inside a closed triangle mesh
+      for (const char* k : {"min", "max", "polygon_x", "polygon_y", "top", "bottom", "plan_x", "plan_z"})
+        if (b.has(k)) b.fail(k, "give either mesh or a box, polygon or surfaces, not both");
+      body.mesh = placed_mesh(b, path, D);
+    } else if (b.has("top") || b.has("bottom") || b.has("plan_x") || b.has("plan_z")) {  // a release volume
       if (D != 3) b.fail(b.has("top") ? "top" : "bottom", "a body between surfaces needs grid.dim = 3");
       for (const char* k : {"min", "max", "polygon_x", "polygon_y"})
         if (b.has(k)) b.fail(k, "give either top (and bottom, plan_x, plan_z) or a box or polygon, not both");
@@ -598,11 +630,11 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
     ob.key = o.dotted("kind");
     ob.key = ob.key.substr(0, ob.key.rfind('.'));
     sc.lines[ob.key] = o.line();
-    const std::string kinds = D == 2 ? "box, segment or polygon (2D)" : "box or cylinder (3D)";
+    const std::string kinds = D == 2 ? "box, segment or polygon (2D)" : "box, cylinder or mesh (3D)";
     if (!o.has("kind")) o.fail("kind", "required: " + kinds);
     ob.kind = o.string("kind");
     const bool known2 = ob.kind == "box" || ob.kind == "segment" || ob.kind == "polygon";
-    const bool known3 = ob.kind == "box" || ob.kind == "cylinder";
+    const bool known3 = ob.kind == "box" || ob.kind == "cylinder" || ob.kind == "mesh";
     if (D == 2 ? !known2 : !known3)
       o.fail("kind", "\"" + ob.kind + "\" " + ((D == 2 ? known3 : known2) ? "needs grid.dim = " + std::to_string(5 - D)
                                                                     : std::string("is not an obstacle kind")) +
@@ -610,7 +642,8 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
     ob.name = o.string_or("name", ob.key);
     for (const auto& other : sc.obstacles)
       if (other.name == ob.name) o.fail("name", "a second obstacle named '" + ob.name + "'");
-    for (const char* k : {"kind", "name", "mu", "min", "max", "from", "to", "thickness", "x", "y", "center", "radius"})
+    for (const char* k : {"kind", "name", "mu", "min", "max", "from", "to", "thickness", "x", "y", "center", "radius",
+                          "mesh", "scale", "rotation", "offset"})
       note(o, k);
     if (ob.kind == "box") {
       const std::vector<double> lo = vec(o, "min", D), hi = vec(o, "max", D);
@@ -638,6 +671,10 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
       if (ob.poly_x.size() < 3) o.fail("x", "a polygon needs at least three vertices");
       if (ob.poly_y.size() != ob.poly_x.size()) o.fail("y", "needs as many vertices as x");
       if (const std::string why = polygon_defect(ob.poly_x, ob.poly_y); !why.empty()) o.fail("x", "the polygon " + why);
+    } else if (ob.kind == "mesh") {  // a closed triangle mesh
+      if (!o.has("mesh")) o.fail_missing("mesh", "the mesh file (STL, OBJ or PLY)");
+      ob.shape = mpm::Obstacle::Shape::Mesh;
+      ob.mesh = placed_mesh(o, path, D);
     } else {  // cylinder: a vertical pier
       ob.shape = mpm::Obstacle::Shape::Cylinder;
       ob.center = o.numbers("center", Bounds::any(), false);

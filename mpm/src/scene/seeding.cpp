@@ -10,6 +10,7 @@
 
 #include <unistd.h>
 
+#include "scene/mesh_geometry.hpp"
 #include "scene/setup_common.hpp"
 
 namespace granflow::mpm::detail {
@@ -100,6 +101,47 @@ void seed_release(const Scene& sc, const Body& body, const std::string& key, dou
     }
 }
 
+// Points of a mesh body on the grid's lattice of spacing l (points at origin + (i + 1/2) l): one
+// line along y per lattice column, its sorted crossings of the surface, the points strictly
+// between where the winding number is not zero. `geometric`: the mesh's own volume.
+void seed_mesh(const Scene& sc, const Body& body, const std::string& key, double l, double ram, double n_nodes,
+               std::vector<std::vector<double>>& pos, double& geometric, double& points_wanted) {
+  if (sc.dim != 3) fail(key + ".mesh", "meshes need grid.dim = 3");
+  const MeshSolid m(*body.mesh, key + ".mesh");
+  mesh_in_grid(m, sc, key + ".mesh");
+  geometric = m.volume();
+  points_wanted += m.volume() / (l * l * l);
+  const double need = memory_bytes(3, n_nodes, points_wanted, sc.stages.size());
+  if (ram > 0 && need > ram)
+    fail("grid.h", "the scene needs about " + gb(need) + " of memory (" + fmt(points_wanted) +
+                       " material points), more than this machine's " + gb(ram) +
+                       ": use a larger grid.h or fewer particles.per_cell");
+  auto first = [&](int d) { return static_cast<long>(std::ceil((m.lo()[d] - sc.origin[d]) / l - 0.5)); };
+  auto last = [&](int d) { return static_cast<long>(std::floor((m.hi()[d] - sc.origin[d]) / l - 0.5)); };
+  std::vector<MeshCrossing> cr;
+  for (long k = first(2); k <= last(2); ++k)
+    for (long i = first(0); i <= last(0); ++i) {
+      const double x = sc.origin[0] + (i + 0.5) * l, z = sc.origin[2] + (k + 0.5) * l;
+      m.crossings(1, z, x, cr);
+      int w = 0;
+      double from = 0;
+      for (const MeshCrossing& c : cr) {
+        const int before = w;
+        w -= c.sign;
+        if (before == 0 && w != 0) from = c.t;
+        if (before == 0 || w != 0) continue;
+        for (long j = static_cast<long>(std::floor((from - sc.origin[1]) / l - 0.5)); ; ++j) {
+          const double y = sc.origin[1] + (j + 0.5) * l;
+          if (y >= c.t) break;
+          if (y <= from) continue;
+          pos[0].push_back(x);
+          pos[1].push_back(y);
+          pos[2].push_back(z);
+        }
+      }
+    }
+}
+
 // K0 of the geostatic state: initial_stress.K0, else Jaky's 1 - sin(phi_c) of material m.
 double K0_of(const Scene& sc, int m) {
   return sc.initial.K0 >= 0 ? sc.initial.K0 : 1.0 - std::sin(sc.material_at(m).params.f.phi_c);
@@ -138,10 +180,13 @@ void seed_particles(const Scene& sc, SceneSetup& su, const std::vector<double>& 
     if (body.material < 0 || body.material >= nmat)
       fail(key + ".material", "material " + std::to_string(body.material) + " does not exist (the scene has " +
                                   std::to_string(nmat) + ")");
-    if (body.is_release()) {
+    if (body.is_release() || body.is_mesh()) {
       const long before = static_cast<long>(pos[0].size());
       double geometric = 0;
-      seed_release(sc, body, key, l, pos, geometric, points_wanted);
+      if (body.is_mesh())
+        seed_mesh(sc, body, key, l, ram, double(su.n_nodes), pos, geometric, points_wanted);
+      else
+        seed_release(sc, body, key, l, pos, geometric, points_wanted);
       pos_body.resize(pos[0].size(), static_cast<int>(b));
       su.seeded_volume.push_back(double(static_cast<long>(pos[0].size()) - before) * std::pow(l, D));
       su.geometric_volume.push_back(geometric);

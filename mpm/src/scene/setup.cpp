@@ -9,6 +9,7 @@
 #include <granflow/mpm/runner.hpp>
 
 #include "scene/boundaries.hpp"
+#include "scene/mesh_geometry.hpp"
 #include "scene/node_masks.hpp"
 #include "scene/seeding.hpp"
 #include "scene/setup_common.hpp"
@@ -124,10 +125,14 @@ SceneSetup make_setup(const Scene& sc) {
   const bool forces = sc.output.forces_on(!sc.obstacles.empty());
   std::vector<TerrainNode> ground_nodes = detail::setup_node_masks(sc, su, ground, forces);
 
-  if (!sc.obstacles.empty()) detail::setup_obstacles(sc, su);
+  detail::ObstacleMeshes meshes;
+  if (!sc.obstacles.empty()) {
+    meshes = detail::obstacle_meshes(sc, su);
+    detail::setup_obstacles(sc, su, meshes);
+  }
   if (forces) {
     std::sort(ground_nodes.begin(), ground_nodes.end(), [](const TerrainNode& a, const TerrainNode& b) { return a.node < b.node; });
-    detail::setup_force_probes(sc, su, ground_nodes);
+    detail::setup_force_probes(sc, su, ground_nodes, meshes);
   }
 
   // Tracked particles: nearest to the requested points.

@@ -11,6 +11,7 @@
 
 #include <granflow/constitutive.hpp>
 
+#include "mesh.hpp"
 #include "shape.hpp"
 
 namespace granflow::io {
@@ -89,9 +90,9 @@ struct Terrain {
 // A rigid, fixed obstacle in the flow (docs/mpm_obstacles.md): every node inside it or on its
 // surface is held, no-slip or (mu) by Coulomb friction with the normal of its nearest face.
 // 2D: a polygon (a box, a wall segment of some thickness, or polygon_x/polygon_y as given); 3D:
-// an axis-aligned box or a vertical cylinder (a pier).
+// an axis-aligned box, a vertical cylinder (a pier) or a closed triangle mesh (docs/mpm_meshes.md).
 struct Obstacle {
-  enum class Shape { Polygon, Box, Cylinder };
+  enum class Shape { Polygon, Box, Cylinder, Mesh };
   Shape shape = Shape::Polygon;
   std::string name;                  // for the force rows ("obstacle[k]" when none is given)
   std::string key;                   // "obstacle[k]", for messages
@@ -100,6 +101,7 @@ struct Obstacle {
   std::vector<double> box_min, box_max;  // 3D box
   std::vector<double> center;        // cylinder: axis at (center[0], center[1]) in x and z
   double radius = 0, y_min = 0, y_max = 0;  // cylinder
+  std::shared_ptr<const TriMesh> mesh;  // mesh: placed, in scene coordinates
   std::optional<double> mu;          // absent: no-slip
   std::vector<double> moment_point;  // moments about it (default: the centroid)
 };
@@ -140,15 +142,17 @@ struct Stage {
 // surfaces: from `bottom` (the failure surface; null: the terrain) up to `top` (the ground
 // before failure), within the plan polygon (plan_x, plan_z) where one is given, else wherever
 // top lies above bottom in the grid's footprint. Surfaces are rasters georeferenced like the
-// terrain (terrain.origin), which such a scene needs.
+// terrain (terrain.origin), which such a scene needs. 3D: or inside a closed triangle mesh.
 struct Body {
   std::vector<double> box_min, box_max;
   std::vector<double> poly_x, poly_y;
   std::shared_ptr<const io::Raster> top, bottom;
   std::vector<double> plan_x, plan_z;
+  std::shared_ptr<const TriMesh> mesh;  // placed, in scene coordinates
   int material = 0;  // index of its material (Scene::material_at)
   bool is_polygon() const { return !poly_x.empty(); }
   bool is_release() const { return top != nullptr; }
+  bool is_mesh() const { return mesh != nullptr; }
 };
 
 struct Material {
@@ -308,5 +312,8 @@ Scene column_scene(double h, double dt, ModelKind model, ShapeKind shape, double
 Scene flume_scene(double h, double dt, ModelKind model, ShapeKind shape, double flow_time);
 // The CI column collapse: 10 mm grid, 4 points per cell, dt 5e-5 s, 0.4 s of collapse.
 Scene small_column_scene(ModelKind model, ShapeKind shape = ShapeKind::Linear);
+// The CI column as a 3D slab 8 cm wide between free-slip side walls (grid 40 x 16 x 8 cm),
+// released at once for `duration` (one stage): mpm_cuda_check's obstacle scene, no obstacle yet.
+Scene slab_3d_scene(ModelKind model, ShapeKind shape, double duration);
 
 }  // namespace granflow::mpm
