@@ -263,10 +263,36 @@ ObstacleMeshes obstacle_meshes(const Scene& sc, const SceneSetup& su) {
   return out;
 }
 
-void setup_obstacles(const Scene& sc, SceneSetup& su, const ObstacleMeshes& meshes) {
+// The nodes of [lo, hi] a mesh obstacle holds, in node order, the queries in parallel (each
+// node's winding number and nearest face are independent; MeshSolid's scratch is thread_local).
+std::vector<MeshHeldNode> mesh_held_nodes(const Solid& solid, const SceneSetup& su, int D, const int* lo, const int* hi,
+                                          double h, double tol) {
+  std::vector<long> nodes;
+  std::vector<double> xs;
+  for_nodes(su, D, lo, hi, h, [&](long I, const double* x) {
+    nodes.push_back(I);
+    xs.insert(xs.end(), x, x + 3);
+  });
+  const long n = static_cast<long>(nodes.size());
+  std::vector<MeshHeldNode> rec(n);
+  std::vector<char> in(n, 0);
+#pragma omp parallel for schedule(dynamic, 256)
+  for (long c = 0; c < n; ++c) {
+    MeshHeldNode& r = rec[c];
+    r.node = nodes[c];
+    in[c] = solid.hold(&xs[3 * c], tol, r.n, r.part, &r.depth) ? 1 : 0;
+  }
+  std::vector<MeshHeldNode> out;
+  for (long c = 0; c < n; ++c)
+    if (in[c]) out.push_back(rec[c]);
+  return out;
+}
+
+void setup_obstacles(const Scene& sc, SceneSetup& su, const ObstacleMeshes& meshes, MeshHeldNodes& held) {
   const int D = sc.dim;
   const double h = sc.h, tol = 1e-9 * h;
   const HostParticles& hp = su.particles;
+  held.assign(sc.obstacles.size(), {});
   for (size_t k = 0; k < sc.obstacles.size(); ++k) {
     const Obstacle& ob = sc.obstacles[k];
     const Solid solid(ob, D, meshes.empty() ? nullptr : meshes[k].get(), h);
@@ -277,12 +303,19 @@ void setup_obstacles(const Scene& sc, SceneSetup& su, const ObstacleMeshes& mesh
                     fmt(2 * h) + " m): material on both sides would share its nodes");
     if (!ob.moment_point.empty() && static_cast<int>(ob.moment_point.size()) != D)
       fail(ob.key + ".moment_point", "needs " + std::to_string(D) + " components");
-    // material inside it at the start
+    // material inside it at the start (the first such point in point order)
+    long inside = hp.n;
+#pragma omp parallel for reduction(min : inside) schedule(static)
     for (long i = 0; i < hp.n; ++i) {
       double x[3] = {0, 0, 0}, n[3];
       for (int d = 0; d < D; ++d) x[d] = hp.x[d * hp.n + i];
       int face = 0;
-      if (!solid.hold(x, -1e-12 * h, n, face)) continue;
+      if (i < inside && solid.hold(x, -1e-12 * h, n, face)) inside = i;
+    }
+    if (inside < hp.n) {
+      const long i = inside;
+      double x[3] = {0, 0, 0};
+      for (int d = 0; d < D; ++d) x[d] = hp.x[d * hp.n + i];
       std::string at = "(" + fmt(x[0]) + ", " + fmt(x[1]) + (D == 3 ? ", " + fmt(x[2]) : "") + ")";
       const int body = su.point_body.empty() ? 0 : su.point_body[i];
       fail(ob.key, "material point at " + at + " of body[" + std::to_string(body) + "] lies inside obstacle '" +
@@ -291,16 +324,23 @@ void setup_obstacles(const Scene& sc, SceneSetup& su, const ObstacleMeshes& mesh
     int lo[3] = {0, 0, 0}, hi[3] = {-1, -1, -1};
     solid.node_range(su, h, tol, lo, hi);
     const size_t before = su.obstacle_nodes.size();
-    for_nodes(su, D, lo, hi, h, [&](long I, const double* x) {
-      double n[3];
-      int face = 0;
-      if (!solid.hold(x, tol, n, face)) return;
+    auto add = [&](long I, const double* n) {
       ObstacleNode o;
       o.node = I;
       std::copy(n, n + 3, o.n);
       o.mu = ob.mu ? *ob.mu : -1.0;
       su.obstacle_nodes.push_back(o);
-    });
+    };
+    if (ob.shape == Obstacle::Shape::Mesh) {
+      held[k] = mesh_held_nodes(solid, su, D, lo, hi, h, tol);
+      for (const MeshHeldNode& r : held[k]) add(r.node, r.n);
+    } else {
+      for_nodes(su, D, lo, hi, h, [&](long I, const double* x) {
+        double n[3];
+        int face = 0;
+        if (solid.hold(x, tol, n, face)) add(I, n);
+      });
+    }
     if (su.obstacle_nodes.size() == before)
       fail(ob.key, "obstacle '" + ob.name + "' holds no grid node: it lies outside the grid (grid.origin, grid.size)");
   }
@@ -309,7 +349,7 @@ void setup_obstacles(const Scene& sc, SceneSetup& su, const ObstacleMeshes& mesh
 }
 
 void setup_force_probes(const Scene& sc, SceneSetup& su, const std::vector<TerrainNode>& ground,
-                        const ObstacleMeshes& meshes) {
+                        const ObstacleMeshes& meshes, const MeshHeldNodes& held) {
   const int D = sc.dim;
   const double h = sc.h, tol = 1e-9 * h;
   if (!sc.output.moment_point.empty() && static_cast<int>(sc.output.moment_point.size()) != D)
@@ -352,6 +392,11 @@ void setup_force_probes(const Scene& sc, SceneSetup& su, const std::vector<Terra
     for (size_t d = 0; d < ob.moment_point.size(); ++d) point[d] = ob.moment_point[d];
     const int first = static_cast<int>(su.force_parts.size());
     for (int f = 0; f < solid.faces(); ++f) add_part(ob.name, solid.face_name(f), point);
+    if (ob.shape == Obstacle::Shape::Mesh && k < held.size()) {  // setup_obstacles' nodes
+      for (const MeshHeldNode& r : held[k])
+        if (r.depth <= reach) claim(r.node, first + r.part, r.n);
+      continue;
+    }
     int nlo[3] = {0, 0, 0}, nhi[3] = {-1, -1, -1};
     solid.node_range(su, h, tol, nlo, nhi);
     for_nodes(su, D, nlo, nhi, h, [&](long I, const double* x) {

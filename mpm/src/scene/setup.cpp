@@ -126,13 +126,14 @@ SceneSetup make_setup(const Scene& sc) {
   std::vector<TerrainNode> ground_nodes = detail::setup_node_masks(sc, su, ground, forces);
 
   detail::ObstacleMeshes meshes;
+  detail::MeshHeldNodes held;
   if (!sc.obstacles.empty()) {
     meshes = detail::obstacle_meshes(sc, su);
-    detail::setup_obstacles(sc, su, meshes);
+    detail::setup_obstacles(sc, su, meshes, held);
   }
   if (forces) {
     std::sort(ground_nodes.begin(), ground_nodes.end(), [](const TerrainNode& a, const TerrainNode& b) { return a.node < b.node; });
-    detail::setup_force_probes(sc, su, ground_nodes, meshes);
+    detail::setup_force_probes(sc, su, ground_nodes, meshes, held);
   }
 
   // Tracked particles: nearest to the requested points.
