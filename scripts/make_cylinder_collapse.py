@@ -36,13 +36,13 @@ p.add_argument("--precision", default="fp32", choices=["fp64", "mixed", "fp32"])
 p.add_argument("--scene", default="scene.toml", help="the scene file's name in OUT_DIR")
 p.add_argument("--rasters", default="", help="a subfolder of OUT_DIR for the rasters")
 p.add_argument("--spread", type=float, default=0.0,
-               help="the largest (R - R0) / R0 the grid must hold (default: twice Lube et al. 2004's law, 1.24 a below a = 1.7, 1.6 a^0.5 above)")
+               help="the largest (R - R0) / R0 the grid must hold (default: three times Lube et al. 2004's law, 1.24 a below a = 1.7, 1.6 a^0.5 above: at a = 4 and R0/h = 25 the front passed twice the law)")
 a = p.parse_args()
 
 R0, H0, h = a.r0, a.a * a.r0, a.h
 if R0 <= 0 or H0 <= 0 or h <= 0 or a.vertices < 3:
     p.error("R0, a, h must be positive and vertices at least 3")
-spread = a.spread if a.spread > 0 else 2 * (1.24 * a.a if a.a < 1.7 else 1.6 * math.sqrt(a.a))
+spread = a.spread if a.spread > 0 else 3 * (1.24 * a.a if a.a < 1.7 else 1.6 * math.sqrt(a.a))
 reach = R0 * (1 + spread)                          # largest radius the grid holds
 side = math.ceil((reach + 2 * h) / h) * h         # plan size from the axis
 Ly = math.ceil((H0 + 3 * h) / h) * h

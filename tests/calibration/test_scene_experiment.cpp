@@ -57,6 +57,7 @@ void expect_batch_equals_single_runs(double collapse) {
   // set a alone, as granflow mpm runs it
   mpm::SceneOverrides ov;
   ov.sets = column_sets(collapse);
+  ov.sets.push_back("time.cap_to_stable=false");  // a batch is an ensemble: it runs time.dt as given
   const mpm::Scene sc = mpm::load_scene(test::source_dir() + "/mpm/scenes/column_collapse_ci.toml", ov);
   const mpm::SceneSetup su = mpm::make_setup(sc);
   auto r = mpm::make_cpu_runner(su);
@@ -101,6 +102,7 @@ TEST(SceneExperiment, FrontIsMeasuredAgainstTheTimeSinceTheRelease) {
   ASSERT_TRUE(p[0].ok) << p[0].error;
   mpm::SceneOverrides ov;
   ov.sets = column_sets(0.1);
+  ov.sets.push_back("time.cap_to_stable=false");  // as the batch (an ensemble) runs it
   const mpm::SceneSetup su = mpm::make_setup(mpm::load_scene(test::source_dir() + "/mpm/scenes/column_collapse_ci.toml", ov));
   auto r = mpm::make_cpu_runner(su);
   mpm::RunOptions ro;
