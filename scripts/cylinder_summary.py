@@ -12,7 +12,13 @@ R0 and h) with the run in CASE_DIR/run and granflow's printed summary in CASE_DI
     exit            granflow's exit code (CASE_DIR/exit; absent: 0)
     steps, wall_s, device_us_per_step   from run.txt
     runout_front_m  runout.csv's last run-out (along x on the symmetry plane)
-    edge_m, edge_axes_m, edge_diagonals_m   deposit.csv's last edge radii (maps)
+    edge_m, edge_axes_m, edge_diagonals_m   deposit.csv's last edge radii (maps), read at
+                    output.edge_thickness (the scene's; else one point spacing)
+    edge_thickness_m  that thickness
+    edge_spacing_m  the edge of the final thickness map (maps/deposit_thickness.asc) read at one
+                    point spacing, granflow's default, in the same way (annuli one map cell wide
+                    about output.deposit_centre, mean thickness at mean distance, linear between):
+                    it shrinks with h, so it reads thinner fringes on finer grids
     height_m        runout.csv's last height (H_inf)
     spread_front, spread_edge   (R_inf - R0) / R0 on either measure
     lube            Lube et al. (2004, J. Fluid Mech. 508, eqs. 3.1-3.2, named before the runs):
@@ -35,13 +41,57 @@ def lube(a):
     return 1.24 * a if a < 1.7 else 1.6 * math.sqrt(a)
 
 
+def scene_value(text, key):
+    m = re.search(r"^" + key + r" = (.+)$", text, re.M)
+    return m.group(1).strip() if m else None
+
+
+def numbers(v):
+    return [float(x) for x in v.strip("[]").split(",")]
+
+
+def map_edge(asc, x0, z0, threshold, plan):
+    """The edge about (x0, z0) where the annuli's mean thickness falls below threshold, as
+    granflow's deposit_edges (mpm/src/output/maps.cpp) on the cells whose centres lie in plan
+    (x_lo, x_hi, z_lo, z_hi); the raster's origin is the grid's (make_cylinder_collapse.py)."""
+    with open(asc) as f:
+        head = {}
+        for _ in range(6):
+            k, v = f.readline().split()
+            head[k.lower()] = float(v)
+        ncols, nrows, cs = int(head["ncols"]), int(head["nrows"]), head["cellsize"]
+        west, south = head["xllcorner"], head["yllcorner"]
+        sum_r, sum_t, count = {}, {}, {}
+        for row, line in enumerate(f):
+            z = south + (nrows - 1 - row + 0.5) * cs
+            if not plan[2] <= z <= plan[3]:
+                continue
+            for col, v in enumerate(line.split()):
+                x = west + (col + 0.5) * cs
+                if not plan[0] <= x <= plan[1]:
+                    continue
+                r = math.hypot(x - x0, z - z0)
+                k = int(r / cs)
+                sum_r[k] = sum_r.get(k, 0.0) + r
+                sum_t[k] = sum_t.get(k, 0.0) + max(float(v), 0.0)
+                count[k] = count.get(k, 0) + 1
+    r_in = t_in = None
+    for k in sorted(count):
+        r, t = sum_r[k] / count[k], sum_t[k] / count[k]
+        if t < threshold:
+            return 0.0 if r_in is None else r_in + (r - r_in) * (t_in - threshold) / (t_in - t)
+        r_in, t_in = r, t
+    return float("nan")
+
+
 def last_row(path):
     rows = list(csv.DictReader(open(path)))
     return rows, rows[-1] if rows else None
 
 
 def summary(case):
-    head = open(os.path.join(case, "scene.toml")).readline()
+    scene = open(os.path.join(case, "scene.toml")).read()
+    head = scene.split("\n", 1)[0]
     m = re.search(r"a = ([0-9.eE+-]+), R0 = ([0-9.eE+-]+) m, h = ([0-9.eE+-]+) m", head)
     if not m:
         raise SystemExit(f"{case}/scene.toml: line 1 does not name a, R0 and h (not made by make_cylinder_collapse.py?)")
@@ -86,12 +136,22 @@ def summary(case):
             out["edge_diagonals_m"] = last["edge_radius_diagonals"]
             out["spread_edge"] = round((float(last["edge_radius"]) - r0) / r0, 4)
             out["edge_vs_lube"] = round(out["spread_edge"] / lube(a) - 1, 4)
+    ppc = int(scene_value(scene, "per_cell") or 8)
+    spacing = h / round(ppc ** (1 / 3))
+    et = scene_value(scene, "edge_thickness")
+    out["edge_thickness_m"] = float(et) if et else spacing
+    asc = os.path.join(run, "maps", "deposit_thickness.asc")
+    centre = scene_value(scene, "deposit_centre")
+    if os.path.exists(asc) and centre:
+        org, size = numbers(scene_value(scene, "origin")), numbers(scene_value(scene, "size"))
+        plan = (org[0], org[0] + size[0], org[2], org[2] + size[2])
+        out["edge_spacing_m"] = round(map_edge(asc, *numbers(centre), spacing, plan), 6)
     out["lube"] = round(lube(a), 4)
     return out
 
 
 COLS = ["case", "a", "r0_m", "h_mm", "r0_over_h", "variant", "exit", "steps", "wall_s", "device_us_per_step",
-        "runout_front_m", "edge_m", "edge_axes_m", "edge_diagonals_m", "height_m", "spread_front", "spread_edge",
+        "runout_front_m", "edge_m", "edge_axes_m", "edge_diagonals_m", "edge_thickness_m", "edge_spacing_m", "height_m", "spread_front", "spread_edge",
         "lube", "edge_vs_lube", "height_over_r0", "t_stop_s", "t_stop_scaled"]
 
 if __name__ == "__main__":

@@ -32,6 +32,8 @@ p.add_argument("--vertices", type=int, default=49, help="polygon vertices of the
 p.add_argument("--ppc", type=int, default=8, help="points per cell (n^3)")
 p.add_argument("--dt", type=float, default=0.0, help="time step [s] (default: 2.5e-3 h, the paper's 1e-5 s at 4 mm)")
 p.add_argument("--duration", type=float, default=1.2, help="collapse time [s]")
+p.add_argument("--edge-thickness", type=float, default=0.04,
+               help="output.edge_thickness over R0: deposit.csv's edge is read at this thickness (default 0.04, the point spacing at R0/h = 12.5; 0: one point spacing, which shrinks with h)")
 p.add_argument("--precision", default="fp32", choices=["fp64", "mixed", "fp32"])
 p.add_argument("--scene", default="scene.toml", help="the scene file's name in OUT_DIR")
 p.add_argument("--rasters", default="", help="a subfolder of OUT_DIR for the rasters")
@@ -106,7 +108,10 @@ lines = [
 if not a.full:
     lines += ["[[wall]]", 'side = "x-"', 'type = "free_slip"', "", "[[wall]]", 'side = "z-"', 'type = "free_slip"', ""]
 lines += ["[[stage]]", 'name = "collapse"', f"duration = {a.duration:g}", "",
-          "[output]", "series_dt = 0.01", f"times = [{a.duration:g}]", f"deposit_centre = [{cx:.9g}, {cz:.9g}]", ""]
+          "[output]", "series_dt = 0.01", f"times = [{a.duration:g}]", f"deposit_centre = [{cx:.9g}, {cz:.9g}]"]
+if a.edge_thickness > 0:
+    lines += [f"edge_thickness = {a.edge_thickness * R0:.9g}"]
+lines += [""]
 with open(os.path.join(a.out, a.scene), "w") as f:
     f.write("\n".join(lines))
 print(f"{os.path.join(a.out, a.scene)}: a = {a.a:g}, R0 = {R0:g} m, H0 = {H0:g} m, h = {h:g} m, dt = {dt:g} s; "

@@ -541,4 +541,19 @@ TEST(TerrainMaps, CylinderCollapseCiSpreadsAlikeAlongTheAxesAndTheDiagonals) {
   EXPECT_NEAR(diag, axes, 0.05 * axes);
   EXPECT_GT(all, std::min(axes, diag) - su.spacing);
   EXPECT_LT(all, std::max(axes, diag) + su.spacing);
+
+  // The edge is read at the scene's output.edge_thickness (0.04 R0), not at one point spacing:
+  // the final map (the last sample's time) gives it back, and the spacing's reading lies inward.
+  const double thr = su.scene.output.edge_thickness;
+  ASSERT_DOUBLE_EQ(thr, 0.004);
+  const io::Raster m = io::read_esri_ascii((s.dir / "maps" / "deposit_thickness.asc").string());
+  std::vector<double> cx, cz, th;
+  for (long row = 0; row < m.nrows; ++row)
+    for (long col = 0; col < m.ncols; ++col) {
+      cx.push_back(m.centre_east(col) - m.west);  // the grid's plan corner is the raster's
+      cz.push_back(m.centre_north(row) - m.south);
+      th.push_back(std::max(0.0, m.at(row, col)));
+    }
+  EXPECT_NEAR(deposit_edges(cx, cz, th, 0, 0, m.cellsize, thr).all, all, 1e-7);
+  EXPECT_LT(deposit_edges(cx, cz, th, 0, 0, m.cellsize, su.spacing).all, all - 0.2 * su.spacing);
 }

@@ -202,7 +202,8 @@ void TerrainMaps::sample(double t, double t_flow, const Frame& fr) {
   if (!profile_) below_ground(fr, row.ground_points, row.ground_depth);
   const std::vector<double>& centre = su_->scene.output.deposit_centre;
   if (!profile_ && centre.size() == 2) {
-    const DepositEdges e = deposit_edges(cell_x_, cell_z_, th, centre[0], centre[1], cellsize_, s);
+    const double thr = su_->scene.output.edge_thickness > 0 ? su_->scene.output.edge_thickness : s;
+    const DepositEdges e = deposit_edges(cell_x_, cell_z_, th, centre[0], centre[1], cellsize_, thr);
     row.edge_radius = e.all;
     row.edge_axes = e.axes;
     row.edge_diagonals = e.diagonals;

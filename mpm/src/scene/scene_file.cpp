@@ -763,6 +763,10 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
       }
       sc.output.deposit_centre = c;
     }
+    if (o->has("edge_thickness")) {
+      if (sc.output.deposit_centre.empty()) o->fail("edge_thickness", "reads the edge about output.deposit_centre, which is not given");
+      sc.output.edge_thickness = o->number("edge_thickness", Bounds::positive());
+    }
     if (o->has("map_cell") && D == 2) {  // the bins of a profile along the base
       if (!sc.base) o->fail("map_cell", "maps need a 3D scene with [terrain] or a 2D one with [base]");
       sc.output.map_cell = o->number("map_cell", Bounds::positive());

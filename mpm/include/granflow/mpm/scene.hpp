@@ -200,6 +200,9 @@ struct OutputSpec {
   // 3D terrain runs: a plan centre [x, z] (grid coordinates) of deposit.csv's edge_radius, the
   // deposit's edge about it (an axisymmetric collapse's axis); empty: no edge_radius column.
   std::vector<double> deposit_centre;
+  // With deposit_centre: the thickness [m] at which edge_radius is read; 0: one point spacing
+  // (which shrinks with h: a fixed thickness makes a mesh series measure one quantity).
+  double edge_thickness = 0;
   // 3D terrain runs: the maps' cell size [m], a whole multiple of the raster's; 0: the raster's.
   double map_cell = 0;
   // The forces on obstacles, walls, base and terrain (obstacle_forces.csv); default: on when the
