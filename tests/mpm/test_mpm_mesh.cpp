@@ -327,6 +327,55 @@ TEST(MpmMesh, BadMeshesAreRefusedAtSetUp) {
   }
 }
 
+// Self-intersections without a transversal crossing: a box set on another, the lower's top and
+// the upper's bottom coplanar and overlapping, the footprint inside one of the lower top's two
+// triangles (no edge of the lower passes under the upper's sides), and a tetrahedron standing on
+// that top from one of its corners (the overlapping triangles share that vertex): both are
+// refused, with the place on the common plane; the boxes a hair apart, and the lower box alone,
+// are accepted.
+TEST(MpmMesh, SurfacesLyingOnThemselvesAreSelfIntersecting) {
+  if (!mesh_reader_available()) GTEST_SKIP() << "built without assimp";
+  const std::string dir = temp_dir("touching");
+  auto error_of = [&](const std::vector<test::Tri>& tris, const std::string& name) {
+    const std::string path = dir + "/" + name + ".stl";
+    test::write_stl(path, tris, true);
+    Scene sc = open_3d();
+    sc.bodies[0] = Body{};
+    sc.bodies[0].mesh = read(path);  // welds the shared corner
+    return setup_error(sc);
+  };
+  const double lo[3] = {0.1, 0.1, 0.1}, hi[3] = {0.2, 0.2, 0.2};
+  // the lower top's triangles meet on the diagonal x = z; the footprints lie where x > z
+  auto stacked = [&](double x0, double x1, double z0, double z1, double gap) {
+    std::vector<test::Tri> m = test::box_mesh(lo, hi);
+    const double lo2[3] = {x0, 0.2 + gap, z0}, hi2[3] = {x1, 0.3, z1};
+    for (const test::Tri& t : test::box_mesh(lo2, hi2)) m.push_back(t);
+    return m;
+  };
+  std::string e = error_of(stacked(0.15, 0.19, 0.11, 0.14, 0), "inside");
+  EXPECT_NE(e.find("is self-intersecting"), std::string::npos) << e;
+  EXPECT_NE(e.find("of triangles cross or overlap"), std::string::npos) << e;
+  EXPECT_NE(e.find(", 0.2, "), std::string::npos) << e;  // where: on the common plane y = 0.2
+  // a tetrahedron standing on the lower top from its corner (0.2, 0.2, 0.1), its other base
+  // vertices inside that top: only triangles sharing the corner meet (coplanar)
+  const std::array<double, 3> tet[4] = {{0.2, 0.2, 0.1}, {0.17, 0.2, 0.12}, {0.19, 0.2, 0.105}, {0.19, 0.25, 0.11}};
+  std::vector<test::Tri> corner = test::box_mesh(lo, hi);
+  for (int f = 0; f < 4; ++f) {
+    std::array<double, 3> a = tet[(f + 1) % 4], b = tet[(f + 2) % 4], c = tet[(f + 3) % 4];
+    const std::array<double, 3>& opposite = tet[f];
+    double n[3], ab[3], ac[3], ao[3];
+    for (int d = 0; d < 3; ++d) ab[d] = b[d] - a[d], ac[d] = c[d] - a[d], ao[d] = opposite[d] - a[d];
+    n[0] = ab[1] * ac[2] - ab[2] * ac[1], n[1] = ab[2] * ac[0] - ab[0] * ac[2], n[2] = ab[0] * ac[1] - ab[1] * ac[0];
+    if (n[0] * ao[0] + n[1] * ao[1] + n[2] * ao[2] > 0) std::swap(b, c);  // outward
+    corner.push_back({a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]});
+  }
+  e = error_of(corner, "corner");
+  EXPECT_NE(e.find("is self-intersecting"), std::string::npos) << e;
+  EXPECT_NE(e.find(", 0.2, "), std::string::npos) << e;
+  EXPECT_EQ(error_of(stacked(0.15, 0.19, 0.11, 0.14, 1e-6), "apart"), "");
+  EXPECT_EQ(error_of(test::box_mesh(lo, hi), "alone"), "");
+}
+
 // Thin plates: an inside run thinner than 2 h across a face is refused, naming where.
 TEST(MpmMesh, ThinPlateObstacleIsRefusedNamingTheThinnestPlace) {
   if (!mesh_reader_available()) GTEST_SKIP() << "built without assimp";

@@ -276,7 +276,7 @@ std::vector<Case> mesh_cases() {
   return {
       {"mesh_open", {{"m3.toml", kMeshScene}, {"m.stl", mesh_cube(0.02, 0.06, 3)}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "m.stl: is not closed: 3 bad edges", "belongs to one triangle only", "from (0.06, 0.02, 0.02)"}},
       {"mesh_flipped_face", {{"m3.toml", kMeshScene}, {"m.stl", mesh_cube(0.02, 0.06, -1, 3)}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "m.stl: is not consistently oriented: 3 bad edges", "a flipped face"}},
-      {"mesh_self_intersecting", {{"m3.toml", kMeshScene}, {"m.stl", mesh_cube(0.02, 0.06, -1, -1, 0.02)}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "m.stl: is self-intersecting: 18 pairs of triangles cross", "at (0.06, 0.04, 0.04)"}},
+      {"mesh_self_intersecting", {{"m3.toml", kMeshScene}, {"m.stl", mesh_cube(0.02, 0.06, -1, -1, 0.02)}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "m.stl: is self-intersecting: 18 pairs of triangles cross or overlap", "at (0.06, 0.04, 0.04)"}},
       {"mesh_empty", {{"m3.toml", kMeshScene}, {"m.stl", ""}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "m.stl: is empty (0 bytes): an empty mesh"}},
       {"mesh_no_triangle", {{"m3.toml", kMeshScene}, {"m.stl", "solid empty\nendsolid empty\n"}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", "m.stl: "}},
       {"mesh_folder", {{"m3.toml", MS("\"m.stl\"", "\".\"")}}, m3, kInput, {"m3.toml:17", "'body[0].mesh'", ".: is a folder, not a mesh file"}},

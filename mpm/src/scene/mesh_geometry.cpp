@@ -304,15 +304,10 @@ void MeshSolid::build_grid() {
 
 void MeshSolid::check_crossing_triangles() const {
   const double eps = 1e-10 * extent_;
-  auto shares = [&](int s, int t) {
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j)
-        if (t_[3 * s + i] == t_[3 * t + j]) return true;
-    return false;
-  };
+  const std::int32_t* T = t_.data();
   // does edge p-q pierce triangle t's interior? then at x
   auto pierces = [&](const double* p, const double* q, int t, double* x) {
-    const double *a = &x_[3 * t_[3 * t]], *b = &x_[3 * t_[3 * t + 1]], *c = &x_[3 * t_[3 * t + 2]];
+    const double *a = &x_[3 * T[3 * t]], *b = &x_[3 * T[3 * t + 1]], *c = &x_[3 * T[3 * t + 2]];
     const double* n = &n_[3 * t];
     double ap[3], aq[3];
     sub(p, a, ap);
@@ -331,6 +326,62 @@ void MeshSolid::check_crossing_triangles() const {
     }
     return true;
   };
+  // Coplanar triangles s and t whose interiors overlap (a surface lying on itself, as where two
+  // solids touch face to face): an edge of one properly crosses an edge of the other (no common
+  // end), or a vertex of one not shared, or the centroid of one, lies strictly inside the other.
+  // Projected on the plane of the normal's two smaller components; eps2 scales with the area.
+  auto overlaps = [&](int s, int t, double* x) {
+    const double* ns = &n_[3 * s];
+    const double* nt = &n_[3 * t];
+    if (std::fabs(dot(ns, nt)) < 1 - 1e-9) return false;
+    for (int k = 0; k < 3; ++k) {
+      double r[3];
+      sub(&x_[3 * T[3 * s + k]], &x_[3 * T[3 * t]], r);
+      if (std::fabs(dot(r, nt)) > eps) return false;
+    }
+    int drop = 0;
+    for (int d = 1; d < 3; ++d)
+      if (std::fabs(nt[d]) > std::fabs(nt[drop])) drop = d;
+    const int u = (drop + 1) % 3, w = (drop + 2) % 3;
+    const double eps2 = eps * extent_;
+    auto orient = [&](const double* a, const double* b, const double* c) {
+      return (b[u] - a[u]) * (c[w] - a[w]) - (b[w] - a[w]) * (c[u] - a[u]);
+    };
+    auto strictly_inside = [&](const double* p, int tri) {
+      const double *a = &x_[3 * T[3 * tri]], *b = &x_[3 * T[3 * tri + 1]], *c = &x_[3 * T[3 * tri + 2]];
+      const double o1 = orient(a, b, p), o2 = orient(b, c, p), o3 = orient(c, a, p);
+      return (o1 > eps2 && o2 > eps2 && o3 > eps2) || (o1 < -eps2 && o2 < -eps2 && o3 < -eps2);
+    };
+    auto shared = [&](std::int32_t v, int tri) { return v == T[3 * tri] || v == T[3 * tri + 1] || v == T[3 * tri + 2]; };
+    for (int e = 0; e < 3; ++e)
+      for (int f = 0; f < 3; ++f) {
+        const std::int32_t i = T[3 * s + e], j = T[3 * s + (e + 1) % 3], k = T[3 * t + f], l = T[3 * t + (f + 1) % 3];
+        if (i == k || i == l || j == k || j == l) continue;
+        const double *p = &x_[3 * i], *q = &x_[3 * j], *a = &x_[3 * k], *b = &x_[3 * l];
+        const double o1 = orient(p, q, a), o2 = orient(p, q, b), o3 = orient(a, b, p), o4 = orient(a, b, q);
+        if (((o1 > eps2 && o2 < -eps2) || (o1 < -eps2 && o2 > eps2)) && ((o3 > eps2 && o4 < -eps2) || (o3 < -eps2 && o4 > eps2))) {
+          const double r = o3 / (o3 - o4);
+          for (int d = 0; d < 3; ++d) x[d] = p[d] + r * (q[d] - p[d]);
+          return true;
+        }
+      }
+    for (int pass = 0; pass < 2; ++pass) {
+      const int a = pass ? t : s, b = pass ? s : t;
+      for (int k = 0; k < 3; ++k)
+        if (!shared(T[3 * a + k], b) && strictly_inside(&x_[3 * T[3 * a + k]], b)) {
+          std::copy(&x_[3 * T[3 * a + k]], &x_[3 * T[3 * a + k]] + 3, x);
+          return true;
+        }
+      double c[3] = {0, 0, 0};
+      for (int k = 0; k < 3; ++k)
+        for (int d = 0; d < 3; ++d) c[d] += x_[3 * T[3 * a + k] + d] / 3;
+      if (strictly_inside(c, b)) {
+        std::copy(c, c + 3, x);
+        return true;
+      }
+    }
+    return false;
+  };
   long pairs = 0;
   int fa = -1, fb = -1;
   double at[3] = {0, 0, 0};
@@ -344,25 +395,45 @@ void MeshSolid::check_crossing_triangles() const {
         const int s = gitem_[x], t = gitem_[y];
         if (n_[3 * s] == 0 && n_[3 * s + 1] == 0 && n_[3 * s + 2] == 0) continue;
         if (n_[3 * t] == 0 && n_[3 * t + 1] == 0 && n_[3 * t + 2] == 0) continue;
-        if (shares(s, t)) continue;
         bool apart = false, here = true;
         for (int d = 0; d < 3 && !apart; ++d) {
           double as = std::numeric_limits<double>::max(), bs = -as, at_ = as, bt = -as;
           for (int k = 0; k < 3; ++k) {
-            as = std::min(as, x_[3 * t_[3 * s + k] + d]), bs = std::max(bs, x_[3 * t_[3 * s + k] + d]);
-            at_ = std::min(at_, x_[3 * t_[3 * t + k] + d]), bt = std::max(bt, x_[3 * t_[3 * t + k] + d]);
+            as = std::min(as, x_[3 * T[3 * s + k] + d]), bs = std::max(bs, x_[3 * T[3 * s + k] + d]);
+            at_ = std::min(at_, x_[3 * T[3 * t + k] + d]), bt = std::max(bt, x_[3 * T[3 * t + k] + d]);
           }
           if (bs < at_ || bt < as) apart = true;
           const int owner = std::clamp(static_cast<int>(std::floor((std::max(as, at_) - g0_[d]) / gc_[d])), 0, gn_[d] - 1);
           here = here && owner == cc[d];  // each pair once: in the cell of its boxes' common corner
         }
         if (apart || !here) continue;
+        // shared vertices; slot_s, slot_t: where the (last) shared one sits in s and in t
+        int nshared = 0, slot_s = -1, slot_t = -1;
+        for (int k = 0; k < 3; ++k) {
+          bool in_t = false, in_s = false;
+          for (int j = 0; j < 3; ++j) {
+            in_t = in_t || T[3 * s + k] == T[3 * t + j];
+            in_s = in_s || T[3 * t + k] == T[3 * s + j];
+          }
+          nshared += in_t;
+          if (in_t) slot_s = k;
+          if (in_s) slot_t = k;
+        }
+        if (nshared == 3) continue;  // the same triangle twice: check_edges counts its edges
         double p[3];
         bool hit = false;
-        for (int e = 0; e < 3 && !hit; ++e) {
-          hit = pierces(&x_[3 * t_[3 * s + e]], &x_[3 * t_[3 * s + (e + 1) % 3]], t, p) ||
-                pierces(&x_[3 * t_[3 * t + e]], &x_[3 * t_[3 * t + (e + 1) % 3]], s, p);
+        if (nshared == 0) {
+          for (int e = 0; e < 3 && !hit; ++e)
+            hit = pierces(&x_[3 * T[3 * s + e]], &x_[3 * T[3 * s + (e + 1) % 3]], t, p) ||
+                  pierces(&x_[3 * T[3 * t + e]], &x_[3 * T[3 * t + (e + 1) % 3]], s, p);
+        } else if (nshared == 1) {
+          // a crossing that starts at the common vertex leaves through the edge of one of them
+          // opposite it (the other edges meet the other's plane only at that vertex)
+          hit = pierces(&x_[3 * T[3 * s + (slot_s + 1) % 3]], &x_[3 * T[3 * s + (slot_s + 2) % 3]], t, p) ||
+                pierces(&x_[3 * T[3 * t + (slot_t + 1) % 3]], &x_[3 * T[3 * t + (slot_t + 2) % 3]], s, p);
         }
+        // two shared vertices: not coplanar, they meet only on their common edge
+        hit = hit || overlaps(s, t, p);
         if (!hit) continue;
         if (pairs++ == 0 || std::min(s, t) < std::min(fa, fb)) {
           fa = std::min(s, t), fb = std::max(s, t);
@@ -372,8 +443,8 @@ void MeshSolid::check_crossing_triangles() const {
   }
   if (pairs)
     fail(key_, (file_.empty() ? "the mesh" : file_) + ": is self-intersecting: " + std::to_string(pairs) +
-                   " pair" + (pairs > 1 ? "s" : "") + " of triangles cross; the first, triangles " + std::to_string(fa) +
-                   " and " + std::to_string(fb) + ", at " + point(at) +
+                   " pair" + (pairs > 1 ? "s" : "") + " of triangles cross or overlap; the first, triangles " +
+                   std::to_string(fa) + " and " + std::to_string(fb) + ", at " + point(at) +
                    ". Separate or merge the parts (a body or obstacle needs one surface without crossings)");
 }
 
