@@ -217,6 +217,11 @@ part_cylinder() {
     echo $? >"$dir/exit"
     dirs+=("$dir")
     python3 scripts/cylinder_summary.py "$dir" | tail -1 | tee -a "$log"
+    # the run's CSVs and final thickness map, for the analysis off the machine (a few MB)
+    local keep=$RES/cyl/$(basename "$dir")
+    mkdir -p "$keep"
+    cp "$dir/scene.toml" "$dir"/run/*.csv "$keep/" 2>/dev/null
+    [ -f "$dir/run/maps/deposit_thickness.asc" ] && gzip -c "$dir/run/maps/deposit_thickness.asc" >"$keep/deposit_thickness.asc.gz"
   done
   python3 scripts/cylinder_summary.py "${dirs[@]}" >"$RES/cylinder.csv"
 }
