@@ -347,6 +347,10 @@ void run_mpm(const MpmOptions& o) {
   const auto t_after = Clock::now();
   std::printf("scene: %s\nparticles: %ld\nsteps: %ld\nsimulated: %.6g s\nwall: %.3f s\n", sc.name.c_str(),
               runner->particles(), s.steps, s.t_end, s.wall_s);
+  if (s.at_rest_since >= 0)
+    std::printf("at rest: kinetic energy below %g of its peak from t = %.6g s for %g s (time.stop_at_rest, "
+                "time.rest_hold): ended at t = %.6g s of %.6g s\n",
+                sc.stop_at_rest, s.at_rest_since, sc.rest_hold, s.t_end, sc.duration());
   if (!sc.adaptive && s.shortened_steps > 0)
     std::printf("time.dt: %ld steps shortened to the stable step (time.cap_to_stable: CFL 1 of the P-wave and "
                 "particle speeds); the shortest %.4g s against %.4g s\n",

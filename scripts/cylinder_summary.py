@@ -27,6 +27,12 @@ R0 and h) with the run in CASE_DIR/run and granflow's printed summary in CASE_DI
     height_over_r0  H_inf / R0
     t_stop_s, t_stop_scaled   the first time after the peak of the kinetic energy at which it is
                     below 1e-3 of the peak, and that time over sqrt(H0 / g) (empty: not reached)
+    t_end_s         the run's last sample (the scene's duration, or earlier: at rest or stopped)
+    at_rest_s       time.stop_at_rest's window start where the run ended at rest (run.txt)
+    rest_end_s, edge_at_rest_end_m   a run without stop_at_rest: when stop_at_rest = 1e-4 with
+                    rest_hold = 0.1 s would have ended it (the driver's rule, rest_since in
+                    mpm/src/run/driver.cpp), and deposit.csv's edge then: its change to edge_m is
+                    what ending at rest costs
 """
 import csv
 import math
@@ -84,6 +90,28 @@ def map_edge(asc, x0, z0, threshold, plan):
     return float("nan")
 
 
+def rest_since(rows, ratio, hold):
+    """The driver's rest window (rows of (t, kinetic energy) of the one stage): its start, or None."""
+    peak = max((e for _, e in rows), default=0.0)
+    if not peak > 0:
+        return None
+    first = len(rows)
+    while first > 0 and rows[first - 1][1] < ratio * peak:
+        first -= 1
+    if first == len(rows) or rows[-1][0] - rows[first][0] < hold - 1e-9:
+        return None
+    return rows[first][0]
+
+
+def rest_end(ke, ratio=1e-4, hold=0.1):
+    """When a run with time.stop_at_rest = ratio would have ended: at the sample after the one
+    that completes the window (the driver checks the rows before the newest)."""
+    for k in range(1, len(ke)):
+        if rest_since(ke[:k], ratio, hold) is not None:
+            return ke[k][0]
+    return None
+
+
 def last_row(path):
     rows = list(csv.DictReader(open(path)))
     return rows, rows[-1] if rows else None
@@ -110,6 +138,8 @@ def summary(case):
                 out["wall_s"] = line.split()[1]
             elif "device time per step (spans)" in line:
                 out["device_us_per_step"] = line.split()[5]
+            elif line.startswith("at rest:"):
+                out["at_rest_s"] = re.search(r"from t = ([0-9.eE+-]+) s", line).group(1)
     run = os.path.join(case, "run")
     ro = os.path.join(run, "runout.csv")
     if os.path.exists(ro):
@@ -124,18 +154,25 @@ def summary(case):
             if stop is not None:
                 out["t_stop_s"] = stop
                 out["t_stop_scaled"] = round(stop / math.sqrt(a * r0 / G), 3)
+            out["t_end_s"] = last["t"]
+            end = rest_end(ke) if "at_rest_s" not in out else None
+            if end is not None:
+                out["rest_end_s"] = end
             front = float(last["runout"])
             out["spread_front"] = round((front - r0) / r0, 4)
             out["height_over_r0"] = round(float(last["height"]) / r0, 4)
     dep = os.path.join(run, "deposit.csv")
     if os.path.exists(dep):
-        _, last = last_row(dep)
+        rows_dep, last = last_row(dep)
         if last:
             out["edge_m"] = last["edge_radius"]
             out["edge_axes_m"] = last["edge_radius_axes"]
             out["edge_diagonals_m"] = last["edge_radius_diagonals"]
             out["spread_edge"] = round((float(last["edge_radius"]) - r0) / r0, 4)
             out["edge_vs_lube"] = round(out["spread_edge"] / lube(a) - 1, 4)
+            if "rest_end_s" in out:
+                out["edge_at_rest_end_m"] = next((r["edge_radius"] for r in rows_dep
+                                                  if abs(float(r["t"]) - out["rest_end_s"]) < 1e-9), "")
     ppc = int(scene_value(scene, "per_cell") or 8)
     spacing = h / round(ppc ** (1 / 3))
     et = scene_value(scene, "edge_thickness")
@@ -152,7 +189,8 @@ def summary(case):
 
 COLS = ["case", "a", "r0_m", "h_mm", "r0_over_h", "variant", "exit", "steps", "wall_s", "device_us_per_step",
         "runout_front_m", "edge_m", "edge_axes_m", "edge_diagonals_m", "edge_thickness_m", "edge_spacing_m", "height_m", "spread_front", "spread_edge",
-        "lube", "edge_vs_lube", "height_over_r0", "t_stop_s", "t_stop_scaled"]
+        "lube", "edge_vs_lube", "height_over_r0", "t_stop_s", "t_stop_scaled",
+        "t_end_s", "at_rest_s", "rest_end_s", "edge_at_rest_end_m"]
 
 if __name__ == "__main__":
     if len(sys.argv) < 2:

@@ -34,6 +34,9 @@ p.add_argument("--dt", type=float, default=0.0, help="time step [s] (default: 2.
 p.add_argument("--duration", type=float, default=1.2, help="collapse time [s]")
 p.add_argument("--edge-thickness", type=float, default=0.04,
                help="output.edge_thickness over R0: deposit.csv's edge is read at this thickness (default 0.04, the point spacing at R0/h = 12.5; 0: one point spacing, which shrinks with h)")
+p.add_argument("--stop-at-rest", type=float, default=0.0,
+               help="time.stop_at_rest: end once the kinetic energy stays below this fraction of its peak (0: run the whole duration)")
+p.add_argument("--rest-hold", type=float, default=0.1, help="time.rest_hold [s], with --stop-at-rest")
 p.add_argument("--precision", default="fp32", choices=["fp64", "mixed", "fp32"])
 p.add_argument("--scene", default="scene.toml", help="the scene file's name in OUT_DIR")
 p.add_argument("--rasters", default="", help="a subfolder of OUT_DIR for the rasters")
@@ -99,7 +102,8 @@ lines = [
     f"made by scripts/make_cylinder_collapse.py",
     f'name = "cylinder collapse a {a.a:g}, R0/h {R0 / h:g}, {"full" if a.full else "quarter"}, {a.set}"',
     "", "[grid]", "dim = 3", f"origin = [0.0, {-2 * h:.9g}, 0.0]", f"size = [{size_x:.9g}, {Ly + 2 * h:.9g}, {size_z:.9g}]",
-    f"h = {h:g}", 'shape = "quadratic"', "", "[particles]", f"per_cell = {a.ppc}", "", "[time]", f"dt = {dt:.6g}", "",
+    f"h = {h:g}", 'shape = "quadratic"', "", "[particles]", f"per_cell = {a.ppc}", "", "[time]", f"dt = {dt:.6g}"] + (
+    [f"stop_at_rest = {a.stop_at_rest:g}", f"rest_hold = {a.rest_hold:g}"] if a.stop_at_rest > 0 else []) + ["",
     "[solver]", "gravity = [0.0, -9.81, 0.0]", 'transfer = "tpic"', "pic_speed = 1.0", f'precision = "{a.precision}"', "",
     "[material]", f'parameters = "{a.set}"', f'model = "{model}"', "", "[initial_stress]", 'kind = "geostatic"', "",
     "[terrain]", f'file = "{rel}ground.asc"', "origin = [0.0, 0.0, 0.0]", "",

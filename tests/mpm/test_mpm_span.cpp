@@ -512,3 +512,65 @@ TEST(CudaOptions, CommandLineSpellingsAreTakenOrRefusedWithoutSideEffects) {
     EXPECT_EQ(describe(o), describe(before)) << name << " " << value << " changed the options";
   }
 }
+
+// time.stop_at_rest's window on hand-made rows: the peak is the last stage's (rows at t >= t_from),
+// the window is the trailing run below ratio x peak, and it must span the hold.
+TEST(MpmRest, RestSinceFindsTheTrailingQuietWindow) {
+  std::vector<SeriesRow> rows;
+  auto add = [&](double t, double ke) {
+    SeriesRow r{t, t, 0, Measures{}};
+    r.m.kinetic_energy = ke;
+    rows.push_back(r);
+  };
+  add(0.0, 50);  // an earlier stage's motion: not the peak of the flow
+  add(0.1, 0);
+  add(0.2, 10);  // the flow's peak
+  add(0.3, 2);
+  add(0.4, 0.009);  // below 1e-3 x 10 from here
+  add(0.5, 0.005);
+  add(0.6, 0.002);
+  EXPECT_DOUBLE_EQ(rest_since(rows, rows.size(), 0.1, 1e-3, 0.2), 0.4);
+  EXPECT_EQ(rest_since(rows, rows.size(), 0.1, 1e-3, 0.25), -1);  // the window spans 0.2 s only
+  EXPECT_EQ(rest_since(rows, rows.size() - 1, 0.1, 1e-3, 0.2), -1);  // the last row not settled yet
+  // the earlier stage's 50 taken as the peak would open the window at 0.4; the flow's 10 does not
+  EXPECT_EQ(rest_since(rows, rows.size(), 0.1, 5e-4, 0.1), -1);
+  EXPECT_DOUBLE_EQ(rest_since(rows, rows.size(), 0.0, 5e-4, 0.1), 0.4);
+  add(0.7, 0.5);  // moving again: the window closes
+  EXPECT_EQ(rest_since(rows, rows.size(), 0.1, 1e-3, 0.1), -1);
+  EXPECT_EQ(rest_since({}, 0, 0.0, 1e-3, 0.1), -1);
+}
+
+// A run that stops at rest is the full run up to that time, bit for bit, ends well before the
+// scene's end, and its run-out is that of the pile the full run leaves (within a point spacing).
+TEST(MpmRest, StopAtRestEndsTheRunOnceThePileIsStill) {
+  Scene sc = test::tiny_column(ModelKind::Frictional);
+  sc.stages[1].duration = 0.8;
+  const SceneSetup full_su = make_setup(sc);
+  sc.stop_at_rest = 1e-4;
+  sc.rest_hold = 0.05;
+  const SceneSetup rest_su = make_setup(sc);
+  RunOptions o;
+  o.progress = false;
+  auto a = make_cpu_runner(full_su);
+  auto b = make_cpu_runner(rest_su);
+  const RunSummary full = run(full_su, *a, o), rest = run(rest_su, *b, o);
+  ASSERT_TRUE(full.ok && rest.ok);
+  EXPECT_LT(full.at_rest_since, 0);
+  ASSERT_GE(rest.at_rest_since, 0);
+  const double t_release = sc.stages[0].duration, t_total = sc.duration();
+  EXPECT_GT(rest.at_rest_since, t_release);
+  EXPECT_LT(rest.t_end, t_total - 0.2) << "at rest from " << rest.at_rest_since;
+  EXPECT_NEAR(rest.t_end - rest.at_rest_since, sc.rest_hold + sc.output.series_dt, 1.5 * sc.output.series_dt);
+  ASSERT_LE(rest.series.size(), full.series.size());
+  double peak = 0;
+  for (size_t i = 0; i < rest.series.size(); ++i) {
+    EXPECT_EQ(rest.series[i].t, full.series[i].t);
+    EXPECT_EQ(rest.series[i].m.runout, full.series[i].m.runout) << "row " << i;
+    EXPECT_EQ(rest.series[i].m.kinetic_energy, full.series[i].m.kinetic_energy) << "row " << i;
+    if (rest.series[i].t >= t_release) peak = std::max(peak, rest.series[i].m.kinetic_energy);
+  }
+  EXPECT_LT(rest.final.kinetic_energy, sc.stop_at_rest * peak);
+  const double spacing = sc.h / sc.ppc_axis;
+  EXPECT_NEAR(rest.final.runout, full.final.runout, spacing);
+  EXPECT_NEAR(rest.final.height, full.final.height, spacing);
+}

@@ -42,6 +42,8 @@ SceneSetup make_ensemble_setup(const std::vector<SceneSetup>& members) {
   for (const Obstacle& o : s0.obstacles)
     if (o.shape == Obstacle::Shape::Mesh)
       throw SceneError(o.key + ".mesh", "ensembles take no meshes; a scene with a mesh runs alone (granflow mpm)");
+  if (s0.stop_at_rest > 0)  // the members share one time loop to the scene's end
+    throw SceneError("time.stop_at_rest", "ensembles run every member to the scene's end; leave stop_at_rest out");
   for (int k = 1; k < nm; ++k) {
     const SceneSetup& m = members[k];
     const Scene& s = m.scene;

@@ -56,6 +56,18 @@ std::string stage_name(const Scene& sc, int i) { return sc.stages[i].name.empty(
 // Steps to queue in a span. Fixed step: exactly those up to the end of the span (the host
 // repeats the span's arithmetic). Adaptive: an estimate from the current step, 2 % long; steps
 // queued past the end do nothing, and a short span is followed by another.
+double rest_since(const std::vector<SeriesRow>& rows, size_t settled, double t_from, double ratio, double hold) {
+  settled = std::min(settled, rows.size());
+  double peak = 0;
+  for (size_t i = 0; i < settled; ++i)
+    if (rows[i].t >= t_from - 1e-12) peak = std::max(peak, rows[i].m.kinetic_energy);
+  if (!(peak > 0)) return -1;
+  size_t first = settled;
+  while (first > 0 && rows[first - 1].t >= t_from - 1e-12 && rows[first - 1].m.kinetic_energy < ratio * peak) --first;
+  if (first == settled || rows[settled - 1].t - rows[first].t < hold - 1e-9) return -1;
+  return rows[first].t;
+}
+
 long span_length(const Span& s, long cap) {
   if (s.adaptive) {
     const double est = (s.t_until - s.t) / s.dt;
@@ -370,6 +382,14 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
       if (t >= next_sample - 1e-12) {
         sample(t, si);
         next_sample += sc.output.series_dt;
+        // the newest row's measures are still on the worker: the rows before it are settled
+        if (sc.stop_at_rest > 0 && si + 1 == static_cast<int>(sc.stages.size())) {
+          const double from = rest_since(sum.series, sum.series.size() - 1, t_release, sc.stop_at_rest, sc.rest_hold);
+          if (from >= 0) {
+            sum.at_rest_since = from;
+            stop = true;
+          }
+        }
       }
       if (next_out < static_cast<long>(out_times.size()) && t >= t_release + out_times[next_out] - 1e-12) {
         if (sum.series.back().t != t) sample(t, si);
@@ -426,7 +446,7 @@ RunSummary run_loop(const SceneSetup& su, Runner& runner, const RunOptions& opt,
       maps.write_maps(opt.out_dir, sum.ok ? fr : last_good);  // the last sample's frame: maxima include it
     }
     flush_writer();  // before the checkpoint goes: a frame that fails leaves it to restart from
-    if (complete && t >= t_total * (1 - 1e-12)) {  // nothing left to continue
+    if (complete && (t >= t_total * (1 - 1e-12) || sum.at_rest_since >= 0)) {  // nothing left to continue
       std::error_code ec;
       std::filesystem::remove(ckpt_path, ec);
       sum.checkpoint.clear();

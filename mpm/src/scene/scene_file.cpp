@@ -401,6 +401,10 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
   sc.adaptive = time.boolean_or("adaptive", false);
   sc.cfl = time.number_or("cfl", 0.5, Bounds{0.0, 1.0, true, false});
   sc.cap_to_stable = time.boolean_or("cap_to_stable", true);
+  sc.stop_at_rest = time.number_or("stop_at_rest", 0.0, Bounds::open(0, 1));
+  sc.rest_hold = time.number_or("rest_hold", 0.1, Bounds::positive());
+  if (time.has("rest_hold") && sc.stop_at_rest == 0)
+    time.fail("rest_hold", "holds only with time.stop_at_rest (a kinetic-energy ratio in (0, 1), e.g. 1e-3)");
   note(time, "dt");
   time.finish();
 

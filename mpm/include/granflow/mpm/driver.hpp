@@ -64,7 +64,13 @@ struct RunSummary {
   // Scenes of several materials: per series row, each material's measures (row-major;
   // materials.csv). Empty otherwise, and in ensembles.
   std::vector<Measures> material_series;
+  double at_rest_since = -1;  // time.stop_at_rest: the rest window's first sample (< 0: not stopped at rest)
 };
+
+// time.stop_at_rest: the time of the first sample of the trailing run of rows[0, settled) whose
+// kinetic energy lies below `ratio` times the peak among rows at t >= t_from (the last stage),
+// when that run spans at least `hold` seconds; -1 otherwise.
+double rest_since(const std::vector<SeriesRow>& rows, size_t settled, double t_from, double ratio, double hold);
 
 RunSummary run(const SceneSetup& su, Runner& runner, const RunOptions& opt);
 // Steps to queue in a span (at most cap): fixed step, exactly those up to its end; adaptive, an

@@ -263,6 +263,11 @@ struct Scene {
   // viscous limit) wherever that falls below it: the step time.dt gets past the set-up check
   // (the at-rest column) but flowing or impacting material can outrun (issue 52's 2D slide).
   bool cap_to_stable = true;
+  // End the run once the flow is at rest (time.stop_at_rest > 0): the kinetic energy of every
+  // sample in the last rest_hold seconds of the last stage below stop_at_rest times that
+  // stage's peak. The outputs are those of a complete run at that time.
+  double stop_at_rest = 0;
+  double rest_hold = 0.1;
   // The steps follow the stable limit: adaptive, or a capped fixed step.
   bool limited_steps() const { return adaptive || cap_to_stable; }
   // The Courant number of that limit: time.cfl when adaptive, 1 for the cap of a fixed step.
