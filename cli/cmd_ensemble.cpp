@@ -46,6 +46,19 @@ struct EnsembleCmd {
   mpm::SceneOverrides overrides;
 };
 
+// make_ensemble_setup's refusals: a key the scene file sets (time.stop_at_rest) is the scene's
+// line; the others (members that differ) are the design's.
+io::InputError ensemble_setup_error(const EnsembleCmd& o, const std::vector<mpm::SceneSetup>& members,
+                                    const mpm::SceneError& e) {
+  if (!members.empty()) {
+    const auto line = members[0].scene.lines.find(e.key());
+    if (line != members[0].scene.lines.end())
+      return io::InputError(io::where(o.scene, line->second) + "'" + e.key() + "'" +
+                            std::string(e.what()).substr(e.key().size()));
+  }
+  return io::InputError(io::where(o.design) + e.what());
+}
+
 // Memory the platform has for the runner's buffers: the GPU's free memory, or the host's
 // available memory (MemAvailable) for the CPU twin. 0: unknown.
 double available_bytes(const std::string& backend) {
@@ -300,7 +313,7 @@ void run_ensemble_ranks(const EnsembleCmd& o) {
       try {
         su = mpm::make_ensemble_setup(ms);
       } catch (const mpm::SceneError& e) {
-        throw io::InputError(io::where(o.design) + e.what());
+        throw ensemble_setup_error(o, ms, e);
       }
     });
   } else {
@@ -417,7 +430,7 @@ void run_ensemble_cmd(const EnsembleCmd& o) {
       try {
         group_su[g] = mpm::make_ensemble_setup(group_ms[g]);
       } catch (const mpm::SceneError& e) {
-        throw io::InputError(io::where(o.design) + e.what());
+        throw ensemble_setup_error(o, group_ms[g], e);
       }
     }
   });

@@ -546,7 +546,7 @@ TEST(MpmRest, StopAtRestEndsTheRunOnceThePileIsStill) {
   Scene sc = test::tiny_column(ModelKind::Frictional);
   sc.stages[1].duration = 0.8;
   const SceneSetup full_su = make_setup(sc);
-  sc.stop_at_rest = 1e-4;
+  sc.stop_at_rest = 2e-3;  // this coarse pile creeps at about 1e-3 of the peak energy from 0.5 s on
   sc.rest_hold = 0.05;
   const SceneSetup rest_su = make_setup(sc);
   RunOptions o;

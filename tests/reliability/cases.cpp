@@ -439,6 +439,8 @@ std::vector<Case> all_cases() {
       {"mpm_two_walls_one_side", {{"scene.toml", kScene + "[[wall]]\nside = \"y-\"\n"}}, kMpm, kInput, {"scene.toml:23", "'wall[1].side'", "second wall on side y-", "contradicts"}},
       {"mpm_wall_outside_grid", {{"scene.toml", S("side = \"y-\"", "side = \"y-\"\nposition = -1")}}, kMpm, kInput, {"scene.toml:18", "'wall[0].position'", "y = -1.000000 lies outside the grid [0.000000, 0.100000]"}},
       {"mpm_dt_above_stability_limit", {{"scene.toml", S("dt = 1e-4", "dt = 1e-2")}}, kMpm, kInput, {"scene.toml:9", "'time.dt'", "above the stability limit h / c_p"}},
+      {"mpm_stop_at_rest_out_of_range", {{"scene.toml", S("dt = 1e-4", "dt = 1e-4\nstop_at_rest = 1.5")}}, kMpm, kInput, {"scene.toml:10", "'time.stop_at_rest'", "must be in (0, 1), got 1.5"}},
+      {"mpm_rest_hold_without_stop_at_rest", {{"scene.toml", S("dt = 1e-4", "dt = 1e-4\nrest_hold = 0.1")}}, kMpm, kInput, {"scene.toml:10", "'time.rest_hold'", "only with time.stop_at_rest"}},
       {"mpm_grid_too_large", {{"scene.toml", S("h = 0.02", "h = 1e-6")}}, kMpm, kInput, {"scene.toml:5", "'grid.h'", "at most 400000000 nodes", "larger grid.h"}},
       {"mpm_unknown_shape", {{"scene.toml", S("h = 0.02", "h = 0.02\nshape = \"cubic\"")}}, kMpm, kInput, {"scene.toml:6", "'grid.shape'", "must be one of 'linear', 'quadratic', got 'cubic'"}},
       {"mpm_stage_negative_duration", {{"scene.toml", S("duration = 0.002", "duration = -0.1")}}, kMpm, kInput, {"scene.toml:19", "'stage[0].duration'", "must be > 0", "-0.1"}},
@@ -533,6 +535,7 @@ std::vector<Case> all_cases() {
       {"mpm_params_unknown_material", {{"scene.toml", kTwoMaterials}}, mpm_with({"--params", "wek=flume"}), kInput, {"--params 'wek=flume'", "no [[material]] named 'wek'"}},
       // ---- ensemble design files (granflow ensemble SCENE DESIGN) ----------------------------
       {"ens_unknown_vary_key", {{"d.toml", design("frictional.phi_cdeg", "range = [18.0, 22.0]")}}, kEns, kInput, {"d.toml:4", "vary key 'frictional.phi_cdeg'", "unknown key 'frictional.phi_cdeg'", "phi_c_deg"}},
+      {"ens_stop_at_rest", {{"scene.toml", S("dt = 1e-4", "dt = 1e-4\nstop_at_rest = 1e-3")}, {"d.toml", design("frictional.phi_c_deg", "range = [18.0, 22.0]")}}, kEns, kInput, {"scene.toml:10", "'time.stop_at_rest'", "ensembles run every member to the scene's end"}},
       {"ens_empty_range", {{"d.toml", design("frictional.phi_c_deg", "range = [22.0, 18.0]")}}, kEns, kInput, {"d.toml:6", "range"}},
       {"ens_zero_members", {{"d.toml", edit(design("frictional.phi_c_deg", "range = [18.0, 22.0]"), "members = 4", "members = 0")}}, kEns, kInput, {"d.toml:3", "design.members"}},
       {"ens_duplicate_key", {{"d.toml", design("frictional.phi_c_deg", "range = [18.0, 22.0]") + "[[vary]]\nkey = \"frictional.phi_c_deg\"\nrange = [19.0, 20.0]\n"}}, kEns, kInput, {"d.toml:8", "'frictional.phi_c_deg' is varied twice", "at line 4"}},

@@ -406,6 +406,7 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
   if (time.has("rest_hold") && sc.stop_at_rest == 0)
     time.fail("rest_hold", "holds only with time.stop_at_rest (a kinetic-energy ratio in (0, 1), e.g. 1e-3)");
   note(time, "dt");
+  if (time.has("stop_at_rest")) note(time, "stop_at_rest");
   time.finish();
 
   if (auto s = root.optional_table("solver")) {
