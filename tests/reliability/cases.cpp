@@ -289,7 +289,7 @@ std::vector<Case> mesh_cases() {
       {"mesh_in_2d_scene", {{"scene.toml", S("min = [0.0, 0.0]\nmax = [0.1, 0.06]\n", "mesh = \"m.stl\"\n")}, {"m.stl", mesh_cube()}}, kMpm, kInput, {"scene.toml:14", "'body[0].mesh'", "meshes need grid.dim = 3"}},
       {"mesh_obstacle_in_2d_scene", {{"scene.toml", kScene + plate}, {"p.stl", mesh_cube()}}, kMpm, kInput, {"'obstacle[0].kind'", "\"mesh\" needs grid.dim = 3"}},
       {"mesh_obstacle_thin", {{"m3.toml", kMeshScene + plate}, {"m.stl", mesh_cube()}, {"p.stl", mesh_cube(0.065, 0.095)}}, m3, kInput, {"m3.toml:25", "'obstacle[0].mesh'", "obstacle 'plate' is 0.03 m thick along x at (", "less than two grid cells (2 h = 0.04 m)"}},
-      {"mesh_in_ensemble", {{"m3.toml", kMeshScene}, {"m.stl", mesh_cube()}, {"d.toml", design("frictional.phi_c_deg", "range = [18.0, 22.0]")}}, {"ensemble", "m3.toml", "d.toml", "--out", "o", "--no-png", "--quiet"}, kInput, {"d.toml: body[0].mesh: ensembles take no meshes; a scene with a mesh runs alone"}},
+      {"mesh_in_ensemble", {{"m3.toml", kMeshScene}, {"m.stl", mesh_cube()}, {"d.toml", design("frictional.phi_c_deg", "range = [18.0, 22.0]")}}, {"ensemble", "m3.toml", "d.toml", "--out", "o", "--no-png", "--quiet"}, kInput, {"m3.toml:17: 'body[0].mesh': ensembles take no meshes; a scene with a mesh runs alone"}},
   };
 }
 
