@@ -46,16 +46,12 @@ struct EnsembleCmd {
   mpm::SceneOverrides overrides;
 };
 
-// make_ensemble_setup's refusals: a key the scene file sets (time.stop_at_rest) is the scene's
-// line; the others (members that differ) are the design's.
+// make_ensemble_setup's refusals: a key the scene gives (time.stop_at_rest, a mesh) is named at
+// the scene's line or --set; the others (members that differ) are the design's.
 io::InputError ensemble_setup_error(const EnsembleCmd& o, const std::vector<mpm::SceneSetup>& members,
                                     const mpm::SceneError& e) {
-  if (!members.empty()) {
-    const auto line = members[0].scene.lines.find(e.key());
-    if (line != members[0].scene.lines.end())
-      return io::InputError(io::where(o.scene, line->second) + "'" + e.key() + "'" +
-                            std::string(e.what()).substr(e.key().size()));
-  }
+  if (!members.empty())
+    if (auto located = mpm::scene_error_at(members[0].scene, e)) return *located;
   return io::InputError(io::where(o.design) + e.what());
 }
 

@@ -53,9 +53,6 @@ std::string stage_name(const Scene& sc, int i) { return sc.stages[i].name.empty(
 
 }  // namespace
 
-// Steps to queue in a span. Fixed step: exactly those up to the end of the span (the host
-// repeats the span's arithmetic). Adaptive: an estimate from the current step, 2 % long; steps
-// queued past the end do nothing, and a short span is followed by another.
 double rest_since(const std::vector<SeriesRow>& rows, size_t settled, double t_from, double ratio, double hold) {
   settled = std::min(settled, rows.size());
   double peak = 0;
@@ -68,6 +65,9 @@ double rest_since(const std::vector<SeriesRow>& rows, size_t settled, double t_f
   return rows[first].t;
 }
 
+// Steps to queue in a span. Fixed step: exactly those up to the end of the span (the host
+// repeats the span's arithmetic). Adaptive: an estimate from the current step, 2 % long; steps
+// queued past the end do nothing, and a short span is followed by another.
 long span_length(const Span& s, long cap) {
   if (s.adaptive) {
     const double est = (s.t_until - s.t) / s.dt;

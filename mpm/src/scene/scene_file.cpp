@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <sstream>
 
 #include <granflow/io/csv_table.hpp>
@@ -877,22 +878,28 @@ void add_params(SceneOverrides& ov, const std::string& value) {
   ov.params = value;
 }
 
+std::optional<InputError> scene_error_at(const Scene& sc, const SceneError& e) {
+  const std::string message = "'" + e.key() + "': " + (e.what() + e.key().size() + 2);
+  // the --set of the key (or of the table holding it: "body[0].min" -> "body[0]"), else its line
+  for (std::string k = e.key(); !k.empty();) {
+    for (auto a = sc.overrides.rbegin(); a != sc.overrides.rend(); ++a)
+      if (override_key(*a) == k) return InputError(where(sc.file) + "--set '" + *a + "': " + message);
+    const auto it = sc.lines.find(k);
+    if (it != sc.lines.end() && it->second > 0)
+      return InputError(where(sc.file, it->second) + message + with_overrides(sc.overrides));
+    const auto cut = k.find_last_of(".[");
+    k = cut == std::string::npos ? "" : k.substr(0, cut);
+  }
+  return std::nullopt;
+}
+
 SceneSetup make_setup_for_file(const Scene& sc) {
   try {
     return make_setup(sc);
   } catch (const SceneError& e) {
-    const std::string message = "'" + e.key() + "': " + (e.what() + e.key().size() + 2);
-    // the --set of the key (or of the table holding it: "body[0].min" -> "body[0]"), else its line
-    for (std::string k = e.key(); !k.empty();) {
-      for (auto a = sc.overrides.rbegin(); a != sc.overrides.rend(); ++a)
-        if (override_key(*a) == k) throw InputError(where(sc.file) + "--set '" + *a + "': " + message);
-      const auto it = sc.lines.find(k);
-      if (it != sc.lines.end() && it->second > 0)
-        throw InputError(where(sc.file, it->second) + message + with_overrides(sc.overrides));
-      const auto cut = k.find_last_of(".[");
-      k = cut == std::string::npos ? "" : k.substr(0, cut);
-    }
-    throw InputError(where(sc.file) + message + with_overrides(sc.overrides));
+    if (auto located = scene_error_at(sc, e)) throw *located;
+    throw InputError(where(sc.file) + "'" + e.key() + "': " + (e.what() + e.key().size() + 2) +
+                     with_overrides(sc.overrides));
   }
 }
 

@@ -3,9 +3,11 @@
 // Command-line overrides (--params, --set) pass through the same validation and errors name them.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
+#include <granflow/io/input_error.hpp>
 #include <granflow/mpm/runner.hpp>
 #include <granflow/mpm/scene.hpp>
 
@@ -41,5 +43,8 @@ Scene load_scene(const std::string& path, const SceneOverrides& overrides = {});
 // make_setup for a scene from load_scene: its consistency errors (SceneError) become input
 // errors naming the file and line of the offending key, or the --set that gave it.
 SceneSetup make_setup_for_file(const Scene& scene);
+// The input error naming where in the scene's file (or its --set) the key of `e` was given, or
+// the table holding it; nullopt when the scene gave neither (a key of another file's making).
+std::optional<io::InputError> scene_error_at(const Scene& scene, const SceneError& e);
 
 }  // namespace granflow::mpm
