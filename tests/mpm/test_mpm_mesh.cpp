@@ -3,10 +3,13 @@
 // the CPU twin), a faceted pier against the analytic cylinder, and the geometry's refusals.
 #include <gtest/gtest.h>
 
+#include <array>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -16,6 +19,7 @@
 #include <granflow/mpm/scene_file.hpp>
 
 #include "mesh_files.hpp"
+#include "scene/mesh_geometry.hpp"
 #include "tiny_column.hpp"
 
 using namespace granflow;
@@ -374,6 +378,61 @@ TEST(MpmMesh, SurfacesLyingOnThemselvesAreSelfIntersecting) {
   EXPECT_NE(e.find(", 0.2, "), std::string::npos) << e;
   EXPECT_EQ(error_of(stacked(0.15, 0.19, 0.11, 0.14, 1e-6), "apart"), "");
   EXPECT_EQ(error_of(test::box_mesh(lo, hi), "alone"), "");
+}
+
+// The coplanar-overlap test of the self-intersection check, against the separating axis theorem
+// (two convex polygons' interiors are disjoint iff their projections on the normal of one of
+// their edges overlap in at most a point), exact on triangles of a small integer lattice, where
+// shared, touching and collinear vertices and edges are common.
+TEST(MpmMesh, CoplanarTrianglesOverlapExactlyWhereTheirInteriorsMeet) {
+  using P = std::array<long, 2>;
+  auto orient = [](const P& a, const P& b, const P& c) { return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]); };
+  auto interiors_meet = [](const P* a, const P* b) {
+    for (const P* t : {a, b})
+      for (int e = 0; e < 3; ++e) {
+        const long nu = t[(e + 1) % 3][1] - t[e][1], nv = t[e][0] - t[(e + 1) % 3][0];
+        long alo = LONG_MAX, ahi = LONG_MIN, blo = LONG_MAX, bhi = LONG_MIN;
+        for (int k = 0; k < 3; ++k) {
+          const long pa = nu * a[k][0] + nv * a[k][1], pb = nu * b[k][0] + nv * b[k][1];
+          alo = std::min(alo, pa), ahi = std::max(ahi, pa), blo = std::min(blo, pb), bhi = std::max(bhi, pb);
+        }
+        if (ahi <= blo || bhi <= alo) return false;
+      }
+    return true;
+  };
+  std::mt19937 rng(54);
+  std::uniform_int_distribution<long> coord(0, 3);
+  int meet = 0, apart = 0;
+  for (int n = 0; n < 20000; ++n) {
+    P a[3], b[3];
+    for (P* t : {a, b})
+      do
+        for (int k = 0; k < 3; ++k) t[k] = {coord(rng), coord(rng)};
+      while (orient(t[0], t[1], t[2]) == 0);
+    double da[3][2], db[3][2], at[2];
+    for (int k = 0; k < 3; ++k) da[k][0] = a[k][0], da[k][1] = a[k][1], db[k][0] = b[k][0], db[k][1] = b[k][1];
+    const double area = mpm::detail::triangle_overlap_area(da, db, at);
+    const double smaller = 0.5 * std::min(std::abs(orient(a[0], a[1], a[2])), std::abs(orient(b[0], b[1], b[2])));
+    const bool expected = interiors_meet(a, b);
+    ASSERT_EQ(area > 1e-9 * smaller, expected) << "pair " << n << ": area " << area;
+    double at2[2];
+    EXPECT_NEAR(mpm::detail::triangle_overlap_area(db, da, at2), area, 1e-12);
+    EXPECT_LE(area, smaller + 1e-12);
+    if (expected) {
+      ++meet;
+      for (const P* t : {a, b}) {  // the reported point lies strictly inside both
+        const double s = orient(t[0], t[1], t[2]) > 0 ? 1 : -1;
+        for (int e = 0; e < 3; ++e) {
+          const P &p = t[e], &q = t[(e + 1) % 3];
+          EXPECT_GT(s * ((q[0] - p[0]) * (at[1] - p[1]) - (q[1] - p[1]) * (at[0] - p[0])), 1e-9) << "pair " << n;
+        }
+      }
+    } else {
+      ++apart;
+    }
+  }
+  EXPECT_GT(meet, 2000);
+  EXPECT_GT(apart, 2000);
 }
 
 // Thin plates: an inside run thinner than 2 h across a face is refused, naming where.

@@ -327,9 +327,9 @@ void MeshSolid::check_crossing_triangles() const {
     return true;
   };
   // Coplanar triangles s and t whose interiors overlap (a surface lying on itself, as where two
-  // solids touch face to face): an edge of one properly crosses an edge of the other (no common
-  // end), or a vertex of one not shared, or the centroid of one, lies strictly inside the other.
-  // Projected on the plane of the normal's two smaller components; eps2 scales with the area.
+  // solids touch face to face): their intersection, projected on the plane of the normal's two
+  // smaller components, has an area above round-off (1e-9 of the smaller triangle's). Exact up
+  // to that threshold: every configuration of shared, touching or collinear vertices and edges.
   auto overlaps = [&](int s, int t, double* x) {
     const double* ns = &n_[3 * s];
     const double* nt = &n_[3 * t];
@@ -343,44 +343,21 @@ void MeshSolid::check_crossing_triangles() const {
     for (int d = 1; d < 3; ++d)
       if (std::fabs(nt[d]) > std::fabs(nt[drop])) drop = d;
     const int u = (drop + 1) % 3, w = (drop + 2) % 3;
-    const double eps2 = eps * extent_;
-    auto orient = [&](const double* a, const double* b, const double* c) {
-      return (b[u] - a[u]) * (c[w] - a[w]) - (b[w] - a[w]) * (c[u] - a[u]);
-    };
-    auto strictly_inside = [&](const double* p, int tri) {
-      const double *a = &x_[3 * T[3 * tri]], *b = &x_[3 * T[3 * tri + 1]], *c = &x_[3 * T[3 * tri + 2]];
-      const double o1 = orient(a, b, p), o2 = orient(b, c, p), o3 = orient(c, a, p);
-      return (o1 > eps2 && o2 > eps2 && o3 > eps2) || (o1 < -eps2 && o2 < -eps2 && o3 < -eps2);
-    };
-    auto shared = [&](std::int32_t v, int tri) { return v == T[3 * tri] || v == T[3 * tri + 1] || v == T[3 * tri + 2]; };
-    for (int e = 0; e < 3; ++e)
-      for (int f = 0; f < 3; ++f) {
-        const std::int32_t i = T[3 * s + e], j = T[3 * s + (e + 1) % 3], k = T[3 * t + f], l = T[3 * t + (f + 1) % 3];
-        if (i == k || i == l || j == k || j == l) continue;
-        const double *p = &x_[3 * i], *q = &x_[3 * j], *a = &x_[3 * k], *b = &x_[3 * l];
-        const double o1 = orient(p, q, a), o2 = orient(p, q, b), o3 = orient(a, b, p), o4 = orient(a, b, q);
-        if (((o1 > eps2 && o2 < -eps2) || (o1 < -eps2 && o2 > eps2)) && ((o3 > eps2 && o4 < -eps2) || (o3 < -eps2 && o4 > eps2))) {
-          const double r = o3 / (o3 - o4);
-          for (int d = 0; d < 3; ++d) x[d] = p[d] + r * (q[d] - p[d]);
-          return true;
-        }
-      }
-    for (int pass = 0; pass < 2; ++pass) {
-      const int a = pass ? t : s, b = pass ? s : t;
-      for (int k = 0; k < 3; ++k)
-        if (!shared(T[3 * a + k], b) && strictly_inside(&x_[3 * T[3 * a + k]], b)) {
-          std::copy(&x_[3 * T[3 * a + k]], &x_[3 * T[3 * a + k]] + 3, x);
-          return true;
-        }
-      double c[3] = {0, 0, 0};
-      for (int k = 0; k < 3; ++k)
-        for (int d = 0; d < 3; ++d) c[d] += x_[3 * T[3 * a + k] + d] / 3;
-      if (strictly_inside(c, b)) {
-        std::copy(c, c + 3, x);
-        return true;
-      }
+    double ps[3][2], pt[3][2];
+    for (int k = 0; k < 3; ++k) {
+      ps[k][0] = x_[3 * T[3 * s + k] + u], ps[k][1] = x_[3 * T[3 * s + k] + w];
+      pt[k][0] = x_[3 * T[3 * t + k] + u], pt[k][1] = x_[3 * T[3 * t + k] + w];
     }
-    return false;
+    auto area2 = [](const double p[3][2]) {
+      return std::fabs((p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]));
+    };
+    double c[2];
+    const double common = triangle_overlap_area(ps, pt, c);
+    if (!(common > 0.5e-9 * std::min(area2(ps), area2(pt)))) return false;
+    const double* a = &x_[3 * T[3 * t]];
+    x[u] = c[0], x[w] = c[1];
+    x[drop] = a[drop] - (nt[u] * (c[0] - a[u]) + nt[w] * (c[1] - a[w])) / nt[drop];  // on t's plane
+    return true;
   };
   long pairs = 0;
   int fa = -1, fb = -1;
@@ -446,6 +423,44 @@ void MeshSolid::check_crossing_triangles() const {
                    " pair" + (pairs > 1 ? "s" : "") + " of triangles cross or overlap; the first, triangles " +
                    std::to_string(fa) + " and " + std::to_string(fb) + ", at " + point(at) +
                    ". Separate or merge the parts (a body or obstacle needs one surface without crossings)");
+}
+
+double triangle_overlap_area(const double a[3][2], const double b[3][2], double at[2]) {
+  // b counter-clockwise
+  const double orient_b = (b[1][0] - b[0][0]) * (b[2][1] - b[0][1]) - (b[1][1] - b[0][1]) * (b[2][0] - b[0][0]);
+  const int order[3] = {0, orient_b >= 0 ? 1 : 2, orient_b >= 0 ? 2 : 1};
+  double poly[9][2], next[9][2];  // a triangle clipped by three half-planes has at most 6 vertices
+  int n = 3;
+  for (int k = 0; k < 3; ++k) poly[k][0] = a[k][0], poly[k][1] = a[k][1];
+  for (int e = 0; e < 3 && n > 0; ++e) {
+    const double* p = b[order[e]];
+    const double* q = b[order[(e + 1) % 3]];
+    auto side = [&](const double* r) { return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]); };
+    int m = 0;
+    for (int k = 0; k < n; ++k) {
+      const double* r0 = poly[k];
+      const double* r1 = poly[(k + 1) % n];
+      const double s0 = side(r0), s1 = side(r1);
+      if (s0 >= 0) next[m][0] = r0[0], next[m][1] = r0[1], ++m;
+      if ((s0 > 0 && s1 < 0) || (s0 < 0 && s1 > 0)) {
+        const double f = s0 / (s0 - s1);
+        next[m][0] = r0[0] + f * (r1[0] - r0[0]), next[m][1] = r0[1] + f * (r1[1] - r0[1]), ++m;
+      }
+    }
+    n = m;
+    for (int k = 0; k < n; ++k) poly[k][0] = next[k][0], poly[k][1] = next[k][1];
+  }
+  double area = 0, cu = 0, cv = 0;
+  for (int k = 0; k < n; ++k) {
+    const double* r0 = poly[k];
+    const double* r1 = poly[(k + 1) % n];
+    const double cr = r0[0] * r1[1] - r1[0] * r0[1];
+    area += cr, cu += (r0[0] + r1[0]) * cr, cv += (r0[1] + r1[1]) * cr;
+  }
+  area *= 0.5;
+  if (area != 0) at[0] = cu / (6 * area), at[1] = cv / (6 * area);
+  else if (n > 0) at[0] = poly[0][0], at[1] = poly[0][1];
+  return std::fabs(area);
 }
 
 void MeshSolid::centroid(double* c) const {

@@ -84,6 +84,11 @@ class MeshSolid {
   double face_key(int tri, const double* p, double tol, int& feature) const;
 };
 
+// Area of the intersection of two triangles of the plane (three (u, v) vertices each, either
+// orientation), by clipping a against b's three half-planes, and that intersection's centroid in
+// `at`. Zero (to round-off) where they meet only on their boundaries.
+double triangle_overlap_area(const double a[3][2], const double b[3][2], double at[2]);
+
 // Refuses (at `key`) a placed mesh whose bounding box leaves the grid; one about 1000 times the
 // grid's size is probably in millimetres (the message suggests scale = 0.001).
 void mesh_in_grid(const MeshSolid& m, const Scene& sc, const std::string& key);
