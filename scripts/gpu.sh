@@ -40,7 +40,11 @@
 #                  series a = 1, 2, 4 at R0/h = 12.5 and 25), a VARIANT's ARGS going to granflow mpm
 #                  but --gen-KEY=VALUE, which goes to the generator as --KEY VALUE (--gen-model=frictional,
 #                  --gen-duration=0.5); one row per run in cylinder.csv
-#                  (scripts/cylinder_summary.py)
+#                  (scripts/cylinder_summary.py); CYL_RESUME=1 continues a case capped by TMO in an
+#                  earlier call on the same machine from its checkpoint (RUNS must persist)
+#   series-3d      the 3D slab and the valley at several grids (SLAB_H, VALLEY_H), fp32, whole runs
+#                  with the step in proportion to h: series3d.csv
+#   meshformats    the STL barrier of valley_barrier_ci.toml also as OBJ and PLY, GPU against CPU twin
 #   frames         the host time outside the steps of the 3D slab (8e6 points, --stop-after 0.15,
 #                  fp32, one GPU): whole command, run wall, device time of the spans; BASE_G=PATH
 #                  (with BASE_SC, the scene folder of that tree) runs an earlier build first, in
@@ -212,9 +216,17 @@ part_cylinder() {
         *) args+=("$w") ;;
       esac
     done
-    python3 scripts/make_cylinder_collapse.py "$dir" --a "$a" --h "$h" "${gen[@]}" >>"$log" || return 1
-    x "${TMO:-590}" "$dir/run.txt" "$G" mpm "$dir/scene.toml" --backend "$BACKEND" --out "$dir/run" --force --no-png "${args[@]}"
+    if [ "${CYL_RESUME:-0}" = 1 ] && [ -f "$dir/run/checkpoint.bin" ]; then
+      # the same case, interrupted by its cap in an earlier call on this machine: continue it
+      x "${TMO:-590}" "$dir/run.txt" "$G" mpm "$dir/scene.toml" --backend "$BACKEND" --out "$dir/run" --restart --no-png \
+        "${args[@]}"
+    else
+      python3 scripts/make_cylinder_collapse.py "$dir" --a "$a" --h "$h" "${gen[@]}" >>"$log" || return 1
+      x "${TMO:-590}" "$dir/run.txt" "$G" mpm "$dir/scene.toml" --backend "$BACKEND" --out "$dir/run" --force --no-png \
+        "${args[@]}"
+    fi
     echo $? >"$dir/exit"
+    cat "$dir/run.txt" >>"$dir/runs.txt"  # every call's summary (run.txt holds the last)
     dirs+=("$dir")
     python3 scripts/cylinder_summary.py "$dir" | tail -1 | tee -a "$log"
     # the run's CSVs and final thickness map, for the analysis off the machine (a few MB)
@@ -224,6 +236,82 @@ part_cylinder() {
     [ -f "$dir/run/maps/deposit_thickness.asc" ] && gzip -c "$dir/run/maps/deposit_thickness.asc" >"$keep/deposit_thickness.asc.gz"
   done
   python3 scripts/cylinder_summary.py "${dirs[@]}" >"$RES/cylinder.csv"
+}
+
+# The 3D slab (column_collapse_3d.toml) and the valley (valley.toml) at several grids (issue 53),
+# fp32, the step in proportion to h (the scenes' 1e-5 s at 1 mm), whole runs: one line per run
+# in series3d.csv. SLAB_H and VALLEY_H: the grids [m].
+part_series_3d() {
+  local h dt name scene
+  echo "scene,h_mm,dt_s,steps,wall_s,device_us_per_step,runout_m,height_m,exit" >"$RES/series3d.csv"
+  for scene in slab valley; do
+    local hs=${SLAB_H:-"0.01 0.005 0.0025"} file=$SC/column_collapse_3d.toml
+    [ $scene = valley ] && hs=${VALLEY_H:-"0.02 0.01 0.005 0.0025"} file=$SC/valley.toml
+    for h in $hs; do
+      dt=$(python3 -c "print(f'{$h * 1e-2:.6g}')")
+      name=${scene}_h$h
+      run "$name" 590 "$file" --precision fp32 --set "grid.h=$h" --set "time.dt=$dt"
+      local rc=$?
+      awk -v s=$scene -v h="$h" -v dt="$dt" -v rc=$rc '/^steps:/ {n = $2} /^wall:/ {w = $2}
+        /device time per step \(spans\)/ {d = $6} /^final run-out:/ {r = $3} /^final height:/ {z = $3}
+        END {printf "%s,%g,%s,%s,%s,%s,%s,%s,%s\n", s, h * 1000, dt, n, w, d, r, z, rc}' "$R/$name.txt" >>"$RES/series3d.csv"
+    done
+  done
+  cat "$RES/series3d.csv"
+}
+
+# The slit barrier of valley_barrier_ci.toml read as STL, OBJ and PLY (written here from the STL)
+# on both back ends: deposit.csv and runout.csv compared byte for byte, obstacle_forces.csv
+# value by value (largest difference of each column).
+part_meshformats() {
+  local f b d=$R/meshformats
+  mkdir -p "$d/valley"
+  cp $SC/valley/*.asc "$d/valley/"
+  python3 - "$SC/valley/slit_barrier.stl" "$d/valley/slit_barrier" <<'PY' || return 1
+import sys
+v, tris = [], []
+for line in open(sys.argv[1]):
+    w = line.split()
+    if w and w[0] == "vertex":
+        v.append(tuple(w[1:4]))
+for i in range(0, len(v), 3):
+    tris.append((i, i + 1, i + 2))
+with open(sys.argv[2] + ".obj", "w") as o:
+    o.write("o barrier\n" + "".join(f"v {a} {b} {c}\n" for a, b, c in v))
+    o.write("".join(f"f {i + 1} {j + 1} {k + 1}\n" for i, j, k in tris))
+with open(sys.argv[2] + ".ply", "w") as o:
+    o.write(f"ply\nformat ascii 1.0\nelement vertex {len(v)}\nproperty float x\nproperty float y\nproperty float z\n"
+            f"element face {len(tris)}\nproperty list uchar int vertex_indices\nend_header\n")
+    o.write("".join(f"{a} {b} {c}\n" for a, b, c in v) + "".join(f"3 {i} {j} {k}\n" for i, j, k in tris))
+PY
+  cp $SC/valley/slit_barrier.stl "$d/valley/"
+  for f in stl obj ply; do
+    sed "s|valley/slit_barrier.stl|valley/slit_barrier.$f|" $SC/valley_barrier_ci.toml >"$d/barrier_$f.toml"
+    for b in cuda cpu; do
+      x 300 "$d/$f.$b.txt" "$G" mpm "$d/barrier_$f.toml" --backend $b --out "$d/$f.$b" --force --no-png
+      echo "  $f $b: exit $?, $(grep -h "^final run-out:" "$d/$f.$b.txt")"
+    done
+  done
+  for f in stl obj ply; do
+    for b in deposit runout; do
+      cmp -s "$d/$f.cuda/$b.csv" "$d/stl.cpu/$b.csv" && echo "  $f cuda $b.csv: identical to stl cpu" ||
+        echo "  $f cuda $b.csv: DIFFERS from stl cpu"
+    done
+    python3 - "$d/$f.cuda/obstacle_forces.csv" "$d/stl.cpu/obstacle_forces.csv" "$f" <<'PY'
+import csv, sys
+a, b = (list(csv.DictReader(open(p))) for p in sys.argv[1:3])
+worst = {}
+for ra, rb in zip(a, b):
+    for k in ra:
+        try:
+            x, y = float(ra[k]), float(rb[k])
+        except ValueError:
+            continue
+        worst[k] = max(worst.get(k, 0.0), abs(x - y))
+print(f"  {sys.argv[3]} cuda obstacle_forces.csv against stl cpu: {len(a)}/{len(b)} rows; largest differences",
+      ", ".join(f"{k} {v:.3g}" for k, v in worst.items()))
+PY
+  done
 }
 
 part_build() {
@@ -626,8 +714,8 @@ main() {
   local part fn f t0 status=0
   for part in "$@"; do
     case $part in
-      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options | flow | sanitize-ensemble | loadcell-pt | loadcell-fr | loadcell-ens | slabs | frames | cylinder) ;;
-      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options flow sanitize-ensemble loadcell-pt loadcell-fr loadcell-ens slabs frames cylinder)" >&2
+      build | check | paper | series | series-column | series-flume | series-fine | perf | profile | sanitize | 3d | ensemble | ensemble-batched | ensemble-diag | study | calibrate | profile-ensemble | ensemble-options | flow | sanitize-ensemble | loadcell-pt | loadcell-fr | loadcell-ens | slabs | frames | cylinder | series-3d | meshformats) ;;
+      *) echo "unknown part '$part' (build check paper series series-column series-flume series-fine perf profile sanitize 3d ensemble ensemble-batched ensemble-diag study calibrate profile-ensemble ensemble-options flow sanitize-ensemble loadcell-pt loadcell-fr loadcell-ens slabs frames cylinder series-3d meshformats)" >&2
          return 2 ;;
     esac
   done

@@ -4,7 +4,7 @@
     python3 scripts/plot_cylinder_series.py [CSV]   (default docs/figures/cylinder_series.csv)
 
 Reads scripts/cylinder_summary.py's rows (scripts/gpu.sh part cylinder), keeps the baseline
-runs that ran to their end, and for each aspect ratio a takes two measures q (the deposit's edge
+runs that ran to their end (variants "baseline" and "rest", the baseline ended once at rest), and for each aspect ratio a takes two measures q (the deposit's edge
 radius and the final height H_inf) over the grids h1 > h2 > h3:
   - the error against the finest run, q(h) / q(h_finest) - 1;
   - with three grids, Richardson's estimate q* = q3 + (q3 - q2) / (r^p - 1), r = h2 / h3, with the
@@ -82,7 +82,7 @@ def main():
     src = sys.argv[1] if len(sys.argv) > 1 else "docs/figures/cylinder_series.csv"
     stem = src[:-4] if src.endswith(".csv") else src
     rows = [r for r in csv.DictReader(line for line in open(src) if not line.startswith("#"))
-            if r["variant"] == "baseline" and r["exit"] == "0" and r.get("edge_m")]
+            if r["variant"] in ("baseline", "rest") and r["exit"] == "0" and r.get("edge_m")]
     for r in rows:
         r["a"] = float(r["a"])
         r["h"] = float(r["h_mm"]) / 1e3
