@@ -9,7 +9,7 @@ radius and the final height H_inf) over the grids h1 > h2 > h3:
   - the error against the finest run, q(h) / q(h_finest) - 1;
   - with three grids, Richardson's estimate q* = q3 + (q3 - q2) / (r^p - 1), r = h2 / h3, with the
     observed order p = ln((q1 - q2) / (q2 - q3)) / ln(h1 / h2) (grids refined by a constant ratio;
-    otherwise p solved numerically); a series that is not monotone has no order: "not monotone"
+    otherwise p solved numerically); a series that is not monotone, or whose differences grow, has no order ("not monotone", "monotone, differences growing")
     and the spread (max - min) / finest are reported instead;
   - the R0/h at which the error against q* falls to 5 % and 2 %, from |e(h)| = C h^p fitted at the
     finest grid.
@@ -50,6 +50,12 @@ def observed_order(h, q):
         else:
             lo = mid
     return 0.5 * (lo + hi)
+
+
+def trend(q):
+    """Why three grids give no order: the differences change sign, or they grow."""
+    d1, d2 = q[-3] - q[-2], q[-2] - q[-1]
+    return "monotone, differences growing" if (d1 > 0) == (d2 > 0) and d1 != 0 and d2 != 0 else "not monotone"
 
 
 def analyse(rows, key):
@@ -127,7 +133,7 @@ def main():
         for a, res in table.items():
             vals = ", ".join(f"{r['r0_over_h']}: {q:.4f}" for r, q in zip(res["rows"], res["q"]))
             if res["order"] is None:
-                why = "two grids: no order" if len(res["q"]) < 3 else "not monotone"
+                why = "two grids: no order" if len(res["q"]) < 3 else trend(res["q"])
                 print(f"| {a:g} | {name} | {vals} | {why}; spread {100 * res['spread']:.1f} % | - | - | - |")
             else:
                 e = res["q"][-1] / res["qstar"] - 1

@@ -19,7 +19,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from plot_cylinder_series import observed_order  # noqa: E402  (beside this script)
+from plot_cylinder_series import observed_order, trend  # noqa: E402  (beside this script)
 from png_output import save_png  # noqa: E402
 
 
@@ -82,7 +82,7 @@ def main():
     for sc, name, rs, res in table:
         vals = ", ".join(f"{r['h_mm']}: {q:.4f}" for r, q in zip(rs, res["q"]))
         if res["order"] is None:
-            why = "two grids: no order" if len(res["q"]) < 3 else "not monotone"
+            why = "two grids: no order" if len(res["q"]) < 3 else trend(res["q"])
             print(f"| {sc} | {name} | {vals} | {why}; spread {100 * res['spread']:.1f} % | - | - | - |")
         else:
             e = res["q"][-1] / res["qstar"] - 1
