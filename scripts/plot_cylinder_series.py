@@ -84,6 +84,27 @@ def analyse(rows, key):
     return out
 
 
+def error_axes(ax, ylabel):
+    """An |error| against wall time panel: labels, the 5 % and 2 % lines, grid, legend."""
+    ax.set_xlabel("whole run, wall time [s]")
+    ax.set_ylabel(ylabel)
+    ax.axhline(0.05, color="0.6", lw=0.8, ls="--")
+    ax.axhline(0.02, color="0.6", lw=0.8, ls=":")
+    ax.grid(True, which="both", lw=0.3)
+    ax.legend(fontsize=8)
+
+
+def save_figure_and_errors(fig, title, stem, errs):
+    """<stem>.png and the rows of <stem>_errors.csv."""
+    fig.suptitle(title)
+    fig.tight_layout()
+    save_png(fig, stem + ".png", 110)
+    with open(stem + "_errors.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, list(errs[0].keys()), lineterminator="\n")
+        w.writeheader()
+        w.writerows(errs)
+
+
 def main():
     src = sys.argv[1] if len(sys.argv) > 1 else "docs/figures/cylinder_series.csv"
     stem = src[:-4] if src.endswith(".csv") else src
@@ -114,19 +135,8 @@ def main():
         ax[0].loglog(xs, [max(y, 1e-4) for y in ys], "o-", label=f"a = {a:g} (against {lbl})")
         ax[1].loglog(xs, [max(y, 1e-4) for y in hs], "s-", label=f"a = {a:g}")
     for k, t in enumerate(("deposit edge radius", "final height")):
-        ax[k].set_xlabel("whole run, wall time [s]")
-        ax[k].set_ylabel(f"|error| of the {t}")
-        ax[k].axhline(0.05, color="0.6", lw=0.8, ls="--")
-        ax[k].axhline(0.02, color="0.6", lw=0.8, ls=":")
-        ax[k].grid(True, which="both", lw=0.3)
-        ax[k].legend(fontsize=8)
-    fig.suptitle("Axisymmetric collapse: error against run time (quarter cylinder, fp32)")
-    fig.tight_layout()
-    save_png(fig, stem + ".png", 110)
-    with open(stem + "_errors.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, list(errs[0].keys()), lineterminator="\n")
-        w.writeheader()
-        w.writerows(errs)
+        error_axes(ax[k], f"|error| of the {t}")
+    save_figure_and_errors(fig, "Axisymmetric collapse: error against run time (quarter cylinder, fp32)", stem, errs)
     print("| a | measure | R0/h: value | observed order | Richardson | finest against it | R0/h for 5 % / 2 % |")
     print("|---|---|---|---|---|---|---|")
     for name, table in (("edge [m]", edge), ("H_inf [m]", height)):

@@ -19,8 +19,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from plot_cylinder_series import observed_order, trend  # noqa: E402  (beside this script)
-from png_output import save_png  # noqa: E402
+from plot_cylinder_series import error_axes, observed_order, save_figure_and_errors, trend  # noqa: E402  (beside this script)
 
 
 def analyse(rs, key):
@@ -64,19 +63,8 @@ def main():
             ax[0][k].loglog(xs, ys, mark, label=f"{name} (against {lbl})")
             table.append((sc, name, rs, res))
         ax[0][k].set_title(sc)
-        ax[0][k].set_xlabel("whole run, wall time [s]")
-        ax[0][k].set_ylabel("|error|")
-        ax[0][k].axhline(0.05, color="0.6", lw=0.8, ls="--")
-        ax[0][k].axhline(0.02, color="0.6", lw=0.8, ls=":")
-        ax[0][k].grid(True, which="both", lw=0.3)
-        ax[0][k].legend(fontsize=8)
-    fig.suptitle("3D scenes: error against run time (fp32, step in proportion to h)")
-    fig.tight_layout()
-    save_png(fig, stem + ".png", 110)
-    with open(stem + "_errors.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, list(errs[0].keys()), lineterminator="\n")
-        w.writeheader()
-        w.writerows(errs)
+        error_axes(ax[0][k], "|error|")
+    save_figure_and_errors(fig, "3D scenes: error against run time (fp32, step in proportion to h)", stem, errs)
     print("| scene | measure | h [mm]: value [m] | observed order | Richardson [m] | finest against it | h for 5 % / 2 % [mm] |")
     print("|---|---|---|---|---|---|---|")
     for sc, name, rs, res in table:
