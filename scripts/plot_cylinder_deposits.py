@@ -6,8 +6,8 @@
 CASE_DIR: a case of scripts/gpu.sh cylinder (scene.toml, and run/maps/deposit_thickness.asc or
 deposit_thickness.asc.gz beside it). The final thickness map is averaged over annuli 0.1 R0 wide
 about output.deposit_centre (R0 = 0.1 m, the generator's default). For each case prints the
-centre thickness H_c (the mean of the innermost two annuli), the plateau radius (where the profile stays within 5 % of H_c) and the
-mean slope of the flank between 25 % and 75 % of H_c, in degrees; plots h/H_c against r/R0,
+centre thickness H_c (the mean of the innermost two annuli), the plateau radius (where the
+profile stays within 5 % of H_c) and the mean slope of the flank between 25 % and 75 % of H_c, in degrees; plots h/H_c against r/R0,
 one panel per parameter set.
 """
 import gzip
@@ -90,11 +90,10 @@ def main():
     print("| set | a | H_c/R0 | plateau radius / R0 | flank slope [deg] |")
     print("|---|---|---|---|---|")
     for a, pset, r, h in sorted(cases, key=lambda c: (c[1], c[0])):
-        r0 = R0
         hc, plateau, slope = shape(r, h)
-        print(f"| {pset} | {a:g} | {hc / r0:.3f} | {plateau / r0:.2f} | {slope:.1f} |")
+        print(f"| {pset} | {a:g} | {hc / R0:.3f} | {plateau / R0:.2f} | {slope:.1f} |")
         k = sets.index(pset)
-        ax[0][k].plot([x / r0 for x in r], [y / hc for y in h], label=f"a = {a:g}")
+        ax[0][k].plot([x / R0 for x in r], [y / hc for y in h], label=f"a = {a:g}")
     for k, pset in enumerate(sets):
         ax[0][k].set_title(pset)
         ax[0][k].set_xlabel("r / R0")

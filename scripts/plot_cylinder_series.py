@@ -58,6 +58,20 @@ def trend(q):
     return "monotone, differences growing" if (d1 > 0) == (d2 > 0) and d1 != 0 and d2 != 0 else "not monotone"
 
 
+def richardson(h, q):
+    """From the three finest grids (h descending): the observed order, Richardson's estimate and
+    h_for(target), the grid at which |e| = C h^p through the finest grid falls to target (None
+    where the finest grid is exact); None without three grids or without an order."""
+    if len(q) < 3:
+        return None
+    p = observed_order(h[-3:], q[-3:])
+    if p is None:
+        return None
+    qs = q[-1] + (q[-1] - q[-2]) / ((h[-2] / h[-1]) ** p - 1)
+    e_fin = abs(q[-1] / qs - 1)
+    return dict(order=p, qstar=qs, h_for=lambda tgt: h[-1] * (tgt / e_fin) ** (1 / p) if e_fin > 0 else None)
+
+
 def analyse(rows, key):
     """Per a: the grids, values, errors against the finest and Richardson, order, 5 % / 2 % R0/h."""
     out = {}
@@ -69,17 +83,13 @@ def analyse(rows, key):
         q = [float(r[key]) for r in rs]
         res = dict(h=h, q=q, rows=rs, order=None, qstar=None, r05=None, r02=None,
                    spread=(max(q) - min(q)) / q[-1])
-        if len(rs) >= 3:
-            p = observed_order(h[-3:], q[-3:])
-            if p is not None:
-                rr = h[-2] / h[-1]
-                qs = q[-1] + (q[-1] - q[-2]) / (rr ** p - 1)
-                res.update(order=p, qstar=qs)
-                e_fin = abs(q[-1] / qs - 1)
-                r0 = rs[-1]["r0"]
-                # |e| = C h^p: h(target) = h_fin (target / e_fin)^(1/p)
-                for tgt, k in ((0.05, "r05"), (0.02, "r02")):
-                    res[k] = r0 / (h[-1] * (tgt / e_fin) ** (1 / p)) if e_fin > 0 else None
+        est = richardson(h, q)
+        if est:
+            res.update(order=est["order"], qstar=est["qstar"])
+            r0 = rs[-1]["r0"]
+            for tgt, k in ((0.05, "r05"), (0.02, "r02")):
+                hg = est["h_for"](tgt)
+                res[k] = r0 / hg if hg else None
         out[a] = res
     return out
 

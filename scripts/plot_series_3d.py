@@ -6,7 +6,7 @@
 Reads the rows of `scripts/gpu.sh series-3d` (scene,h_mm,dt_s,steps,wall_s,...,runout_m,height_m,
 exit). For each scene and measure (final run-out, final height) over its grids h1 > h2 > h3 > ...:
 the error against the finest run, and with three or more grids the observed order and
-Richardson's estimate from the three finest (plot_cylinder_series.observed_order; "not monotone"
+Richardson's estimate from the three finest (plot_cylinder_series.richardson; "not monotone"
 and the spread where the differences change sign), the error against that estimate and the grid
 at which it falls to 5 % and 2 % (|e| = C h^p through the finest grid). Writes <stem>_errors.csv
 and <stem>.png (|error| against the whole run's wall time) and prints the Markdown table.
@@ -19,21 +19,16 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from plot_cylinder_series import error_axes, observed_order, save_figure_and_errors, trend  # noqa: E402  (beside this script)
+from plot_cylinder_series import error_axes, richardson, save_figure_and_errors, trend  # noqa: E402  (beside this script)
 
 
 def analyse(rs, key):
     h = [r["h"] for r in rs]
     q = [float(r[key]) for r in rs]
     res = dict(h=h, q=q, order=None, qstar=None, h05=None, h02=None, spread=(max(q) - min(q)) / q[-1])
-    if len(rs) >= 3:
-        p = observed_order(h[-3:], q[-3:])
-        if p is not None:
-            qs = q[-1] + (q[-1] - q[-2]) / ((h[-2] / h[-1]) ** p - 1)
-            e_fin = abs(q[-1] / qs - 1)
-            res.update(order=p, qstar=qs)
-            for tgt, k in ((0.05, "h05"), (0.02, "h02")):
-                res[k] = h[-1] * (tgt / e_fin) ** (1 / p) if e_fin > 0 else None
+    est = richardson(h, q)
+    if est:
+        res.update(order=est["order"], qstar=est["qstar"], h05=est["h_for"](0.05), h02=est["h_for"](0.02))
     return res
 
 
