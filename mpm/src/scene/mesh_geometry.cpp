@@ -55,6 +55,11 @@ void normalize(double* a) {
     for (int d = 0; d < 3; ++d) a[d] /= l;
 }
 
+// Twice the signed area of the plane triangle (a, b, c): positive when counter-clockwise.
+double orient2(const double* a, const double* b, const double* c) {
+  return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+}
+
 std::string point(const double* p) { return "(" + fmt(p[0]) + ", " + fmt(p[1]) + ", " + fmt(p[2]) + ")"; }
 
 // Sign of the edge function of edge i -> j at q in 2D, exact; zero counts as the perturbed
@@ -348,12 +353,10 @@ void MeshSolid::check_crossing_triangles() const {
       ps[k][0] = x_[3 * T[3 * s + k] + u], ps[k][1] = x_[3 * T[3 * s + k] + w];
       pt[k][0] = x_[3 * T[3 * t + k] + u], pt[k][1] = x_[3 * T[3 * t + k] + w];
     }
-    auto area2 = [](const double p[3][2]) {
-      return std::fabs((p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]));
-    };
     double c[2];
     const double common = triangle_overlap_area(ps, pt, c);
-    if (!(common > 0.5e-9 * std::min(area2(ps), area2(pt)))) return false;
+    const double smaller2 = std::min(std::fabs(orient2(ps[0], ps[1], ps[2])), std::fabs(orient2(pt[0], pt[1], pt[2])));
+    if (!(common > 0.5e-9 * smaller2)) return false;
     const double* a = &x_[3 * T[3 * t]];
     x[u] = c[0], x[w] = c[1];
     x[drop] = a[drop] - (nt[u] * (c[0] - a[u]) + nt[w] * (c[1] - a[w])) / nt[drop];  // on t's plane
@@ -427,20 +430,19 @@ void MeshSolid::check_crossing_triangles() const {
 
 double triangle_overlap_area(const double a[3][2], const double b[3][2], double at[2]) {
   // b counter-clockwise
-  const double orient_b = (b[1][0] - b[0][0]) * (b[2][1] - b[0][1]) - (b[1][1] - b[0][1]) * (b[2][0] - b[0][0]);
-  const int order[3] = {0, orient_b >= 0 ? 1 : 2, orient_b >= 0 ? 2 : 1};
+  const bool ccw = orient2(b[0], b[1], b[2]) >= 0;
+  const int order[3] = {0, ccw ? 1 : 2, ccw ? 2 : 1};
   double poly[9][2], next[9][2];  // a triangle clipped by three half-planes has at most 6 vertices
   int n = 3;
   for (int k = 0; k < 3; ++k) poly[k][0] = a[k][0], poly[k][1] = a[k][1];
   for (int e = 0; e < 3 && n > 0; ++e) {
     const double* p = b[order[e]];
     const double* q = b[order[(e + 1) % 3]];
-    auto side = [&](const double* r) { return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]); };
     int m = 0;
     for (int k = 0; k < n; ++k) {
       const double* r0 = poly[k];
       const double* r1 = poly[(k + 1) % n];
-      const double s0 = side(r0), s1 = side(r1);
+      const double s0 = orient2(p, q, r0), s1 = orient2(p, q, r1);
       if (s0 >= 0) next[m][0] = r0[0], next[m][1] = r0[1], ++m;
       if ((s0 > 0 && s1 < 0) || (s0 < 0 && s1 > 0)) {
         const double f = s0 / (s0 - s1);
