@@ -19,14 +19,17 @@ R0 and h) with the run in CASE_DIR/run and granflow's printed summary in CASE_DI
                     point spacing, granflow's default, in the same way (annuli one map cell wide
                     about output.deposit_centre, mean thickness at mean distance, linear between):
                     it shrinks with h, so it reads thinner fringes on finer grids
-    height_m        runout.csv's last height (H_inf)
+    height_m        runout.csv's last height above the ground (H_inf): measured from the scene's
+                    [runout] line (y = 0 from the generator of 2026-12-07 on), else from the
+                    grid's bottom (granflow's default line, y = -2 h), which is subtracted here
     spread_front, spread_edge   (R_inf - R0) / R0 on either measure
     lube            Lube et al. (2004, J. Fluid Mech. 508, eqs. 3.1-3.2, named before the runs):
                     (R_inf - R0) / R0 = 1.24 a for a < 1.7, 1.6 a^(1/2) above
     edge_vs_lube    spread_edge / lube - 1
     height_over_r0  H_inf / R0
     t_stop_s, t_stop_scaled   the first time after the peak of the kinetic energy at which it is
-                    below 1e-3 of the peak, and that time over sqrt(H0 / g) (empty: not reached)
+                    below 1e-3 of the peak, from the collapse's start (runout.csv's t_flow, after
+                    a consolidation stage), and that time over sqrt(H0 / g) (empty: not reached)
     t_end_s         the run's last sample (the scene's duration, or earlier: at rest or stopped)
     at_rest_s       time.stop_at_rest's window start where the run ended at rest (run.txt)
     rest_end_s, edge_at_rest_end_m   a run without stop_at_rest: when stop_at_rest = 1e-4 with
@@ -117,6 +120,18 @@ def last_row(path):
     return rows, rows[-1] if rows else None
 
 
+def line_height(scene):
+    """The height of runout.csv's reference line: [runout]'s y (level), else the grid's bottom."""
+    m = re.search(r"^\[runout\]\s*\n(?:.*\n)*?y = (\[.*\])", scene, re.M)
+    if m:
+        ys = numbers(m.group(1))
+        if max(ys) != min(ys):
+            raise SystemExit("runout.y is not level: the height above the ground is not its offset")
+        return ys[0]
+    origin = scene_value(scene.split("[grid]", 1)[1], "origin")
+    return numbers(origin)[1]
+
+
 def summary(case):
     scene = open(os.path.join(case, "scene.toml")).read()
     head = scene.split("\n", 1)[0]
@@ -146,8 +161,10 @@ def summary(case):
         rows, last = last_row(ro)
         if last:
             out["runout_front_m"] = last["runout"]
-            out["height_m"] = last["height"]
-            ke = [(float(r["t"]), float(r["kinetic_energy"])) for r in rows]
+            height = float(last["height"]) + line_height(scene)  # the ground is at y = 0
+            out["height_m"] = round(height, 9)
+            ke = [(float(r.get("t_flow", r["t"])), float(r["kinetic_energy"])) for r in rows]
+            ke = [k for k in ke if k[0] >= 0]  # the collapse stage (not a consolidation before it)
             ipk = max(range(len(ke)), key=lambda i: ke[i][1])
             peak = ke[ipk][1]
             stop = next((t for t, e in ke[ipk:] if e < 1e-3 * peak), None)
@@ -160,7 +177,7 @@ def summary(case):
                 out["rest_end_s"] = end
             front = float(last["runout"])
             out["spread_front"] = round((front - r0) / r0, 4)
-            out["height_over_r0"] = round(float(last["height"]) / r0, 4)
+            out["height_over_r0"] = round(height / r0, 4)
     dep = os.path.join(run, "deposit.csv")
     if os.path.exists(dep):
         rows_dep, last = last_row(dep)
@@ -172,7 +189,7 @@ def summary(case):
             out["edge_vs_lube"] = round(out["spread_edge"] / lube(a) - 1, 4)
             if "rest_end_s" in out:
                 out["edge_at_rest_end_m"] = next((r["edge_radius"] for r in rows_dep
-                                                  if abs(float(r["t"]) - out["rest_end_s"]) < 1e-9), "")
+                                                  if abs(float(r.get("t_flow", r["t"])) - out["rest_end_s"]) < 1e-9), "")
     ppc = int(scene_value(scene, "per_cell") or 8)
     spacing = h / round(ppc ** (1 / 3))
     et = scene_value(scene, "edge_thickness")

@@ -14,7 +14,7 @@ height H0 = a R0 as a release volume on a level raster, no-slip ground, geostati
 of `vertices` vertices on the circle (a quarter: from the x axis to the z axis); its area is below
 the circle's by 1 - sin(dth)/dth (dth the angle between vertices), printed with the run-out
 lengths the grid needs. deposit.csv gains `edge_radius` about the axis (output.deposit_centre).
-The run-out of runout.csv is along x on the symmetry plane.
+The run-out of runout.csv is along x on the symmetry plane, its height above the ground ([runout] at y = 0).
 """
 import argparse
 import math
@@ -111,6 +111,9 @@ lines = [
 ]
 if not a.full:
     lines += ["[[wall]]", 'side = "x-"', 'type = "free_slip"', "", "[[wall]]", 'side = "z-"', 'type = "free_slip"', ""]
+# runout.csv along x on the ground (y = 0): its height is then above the ground, not above the
+# grid's bottom at -2 h (the default line)
+lines += ["[runout]", f"x = [0.0, {size_x:.9g}]", "y = [0.0, 0.0]", ""]
 lines += ["[[stage]]", 'name = "collapse"', f"duration = {a.duration:g}", "",
           "[output]", "series_dt = 0.01", f"times = [{a.duration:g}]", f"deposit_centre = [{cx:.9g}, {cz:.9g}]"]
 if a.edge_thickness > 0:

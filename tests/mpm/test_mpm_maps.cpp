@@ -556,4 +556,23 @@ TEST(TerrainMaps, CylinderCollapseCiSpreadsAlikeAlongTheAxesAndTheDiagonals) {
     }
   EXPECT_NEAR(deposit_edges(cx, cz, th, 0, 0, m.cellsize, thr).all, all, 1e-7);
   EXPECT_LT(deposit_edges(cx, cz, th, 0, 0, m.cellsize, su.spacing).all, all - 0.2 * su.spacing);
+
+  // runout.csv's height is above the ground (the scene's [runout] line at y = 0), not above the
+  // grid's bottom 2 h below it: at t = 0 the column's top, H0 (the highest points half a
+  // spacing below it, plus the measure's half spacing); at the end it has collapsed.
+  std::istringstream ro(read_text(s.dir / "runout.csv"));
+  std::getline(ro, line);
+  ASSERT_EQ(line.rfind("t,t_flow,stage,runout,height,", 0), 0u) << line;
+  std::vector<std::vector<double>> rows;
+  while (std::getline(ro, line)) {
+    std::vector<double> v;
+    std::istringstream cs(line);
+    for (std::string cell; std::getline(cs, cell, ',');) v.push_back(std::stod(cell));
+    rows.push_back(v);
+  }
+  ASSERT_GE(rows.size(), 2u);
+  EXPECT_NEAR(rows.front()[4], 0.1, 1e-9);
+  EXPECT_LT(rows.back()[4], 0.8 * 0.1);
+  EXPECT_GT(rows.back()[4], 0.3 * 0.1);
 }
+
