@@ -4,7 +4,7 @@
     python3 scripts/make_cylinder_collapse.py OUT_DIR [--a 2] [--r0 0.1] [--h 0.004]
         [--set column_collapse] [--model phase_transition|frictional] [--full] [--vertices 49]
         [--ppc 8] [--dt DT] [--duration 1.2] [--precision fp32|mixed|fp64]
-        [--scene scene.toml] [--rasters SUBDIR] [--spread S]
+        [--scene scene.toml] [--rasters SUBDIR] [--spread S] [--gate-lift-speed V [--consolidation 0.1]]
 
 Writes OUT_DIR/scene.toml (--scene) and its flat rasters (ground.asc, top.asc, in OUT_DIR or
 its --rasters subfolder): a cylinder of radius R0 and
@@ -15,6 +15,11 @@ of `vertices` vertices on the circle (a quarter: from the x axis to the z axis);
 the circle's by 1 - sin(dth)/dth (dth the angle between vertices), printed with the run-out
 lengths the grid needs. deposit.csv gains `edge_radius` about the axis (output.deposit_centre).
 The run-out of runout.csv is along x on the symmetry plane, its height above the ground ([runout] at y = 0).
+
+With --gate-lift-speed V the start is not geostatic: the column consolidates from zero stress
+for --consolidation seconds (local damping 0.5, as the paper's 2D scenes) inside a cylindrical
+gate of radius R0 holding the radial velocity, and the collapse stage lifts that gate from the
+ground at V m/s (V = 0: the gate is removed at once). Output times count from the start of the collapse.
 """
 import argparse
 import math
@@ -42,11 +47,17 @@ p.add_argument("--scene", default="scene.toml", help="the scene file's name in O
 p.add_argument("--rasters", default="", help="a subfolder of OUT_DIR for the rasters")
 p.add_argument("--spread", type=float, default=0.0,
                help="the largest (R - R0) / R0 the grid must hold (default: three times Lube et al. 2004's law, 1.24 a below a = 1.7, 1.6 a^0.5 above: at a = 4 and R0/h = 25 the front passed twice the law)")
+p.add_argument("--gate-lift-speed", type=float, default=None,
+               help="consolidate behind a cylindrical gate (radius R0), then lift it at this speed [m/s] (0: removed at once)")
+p.add_argument("--consolidation", type=float, default=0.1, help="the consolidation stage's duration [s], with --gate-lift-speed")
 a = p.parse_args()
 
 R0, H0, h = a.r0, a.a * a.r0, a.h
 if R0 <= 0 or H0 <= 0 or h <= 0 or a.vertices < 3:
     p.error("R0, a, h must be positive and vertices at least 3")
+gated = a.gate_lift_speed is not None
+if gated and (a.gate_lift_speed < 0 or a.consolidation <= 0):
+    p.error("--gate-lift-speed must be >= 0 and --consolidation positive")
 spread = a.spread if a.spread > 0 else 3 * (1.24 * a.a if a.a < 1.7 else 1.6 * math.sqrt(a.a))
 reach = R0 * (1 + spread)                          # largest radius the grid holds
 side = math.ceil((reach + 2 * h) / h) * h         # plan size from the axis
@@ -105,17 +116,23 @@ lines = [
     f"h = {h:g}", 'shape = "quadratic"', "", "[particles]", f"per_cell = {a.ppc}", "", "[time]", f"dt = {dt:.6g}"] + (
     [f"stop_at_rest = {a.stop_at_rest:g}", f"rest_hold = {a.rest_hold:g}"] if a.stop_at_rest > 0 else []) + ["",
     "[solver]", "gravity = [0.0, -9.81, 0.0]", 'transfer = "tpic"', "pic_speed = 1.0", f'precision = "{a.precision}"', "",
-    "[material]", f'parameters = "{a.set}"', f'model = "{model}"', "", "[initial_stress]", 'kind = "geostatic"', "",
+    "[material]", f'parameters = "{a.set}"', f'model = "{model}"', ""] + (
+    [] if gated else ["[initial_stress]", 'kind = "geostatic"', ""]) + [
     "[terrain]", f'file = "{rel}ground.asc"', "origin = [0.0, 0.0, 0.0]", "",
     "[[body]]", f'top = "{rel}top.asc"', f"plan_x = [{fmt(xs)}]", f"plan_z = [{fmt(zs)}]", "",
 ]
 if not a.full:
     lines += ["[[wall]]", 'side = "x-"', 'type = "free_slip"', "", "[[wall]]", 'side = "z-"', 'type = "free_slip"', ""]
+gate = ["[stage.gate]", f"point = [{cx:.9g}, 0.0, {cz:.9g}]", f"radius = {R0:.9g}", 'hold = "normal"']
+if gated:
+    lines += ["[[stage]]", 'name = "consolidation"', f"duration = {a.consolidation:g}", "damping = 0.5"] + gate + [""]
+lines += ["[[stage]]", 'name = "collapse"', f"duration = {a.duration:g}"]
+if gated and a.gate_lift_speed > 0:
+    lines += gate + [f"lift_speed = {a.gate_lift_speed:g}"]
 # runout.csv along x on the ground (y = 0): its height is then above the ground, not above the
 # grid's bottom at -2 h (the default line)
-lines += ["[runout]", f"x = [0.0, {size_x:.9g}]", "y = [0.0, 0.0]", ""]
-lines += ["[[stage]]", 'name = "collapse"', f"duration = {a.duration:g}", "",
-          "[output]", "series_dt = 0.01", f"times = [{a.duration:g}]", f"deposit_centre = [{cx:.9g}, {cz:.9g}]"]
+lines += ["", "[runout]", f"x = [0.0, {size_x:.9g}]", "y = [0.0, 0.0]"]
+lines += ["", "[output]", "series_dt = 0.01", f"times = [{a.duration:g}]", f"deposit_centre = [{cx:.9g}, {cz:.9g}]"]
 if a.edge_thickness > 0:
     lines += [f"edge_thickness = {a.edge_thickness * R0:.9g}"]
 lines += [""]

@@ -108,8 +108,11 @@ std::vector<std::uint8_t> stage_mask(const Scene& sc, const SceneSetup& su, cons
   const int D = sc.dim;
   std::vector<std::uint8_t> mask(su.n_nodes, 0);
   const std::uint8_t all = static_cast<std::uint8_t>((1u << D) - 1);
+  const bool cylinder = st.gate && st.gate->radius > 0;
+  // a cylinder's "normal" is radial: contact_node holds it (gate_radial), no axis bit
   const std::uint8_t gate_bits =
-      st.gate ? (st.gate->normal_only ? static_cast<std::uint8_t>(1u << gate_axis) : all) : 0;
+      st.gate ? (st.gate->normal_only ? (cylinder ? std::uint8_t(0) : static_cast<std::uint8_t>(1u << gate_axis)) : all)
+              : 0;
   for (long k = 0; k < su.n_nodes; ++k) {
     long kk = k;
     double x[3];
@@ -133,10 +136,16 @@ std::vector<std::uint8_t> stage_mask(const Scene& sc, const SceneSetup& su, cons
         m |= all;
     }
     if (st.gate) {
-      double s = 0;
-      for (int d = 0; d < D; ++d) s += (x[d] - st.gate->point[d]) * st.gate->normal[d];
-      if (s >= -tol) {
-        if (lifting)
+      bool held;
+      if (cylinder) {
+        held = outside_gate_cylinder(st.gate->point.data(), st.gate->radius, x, tol);
+      } else {
+        double s = 0;
+        for (int d = 0; d < D; ++d) s += (x[d] - st.gate->point[d]) * st.gate->normal[d];
+        held = s >= -tol;
+      }
+      if (held) {
+        if (lifting || cylinder)
           contact = true;
         else
           m |= gate_bits;
@@ -146,7 +155,7 @@ std::vector<std::uint8_t> stage_mask(const Scene& sc, const SceneSetup& su, cons
     if (contact && m != all) m |= kContactNode;
     mask[k] = m;
   }
-  if (friction || lifting) {
+  if (friction || lifting || cylinder) {
     ContactTable c;
     for (int d = 0; d < D; ++d) c.origin[d] = su.origin[d];
     c.h = sc.h;
@@ -160,13 +169,15 @@ std::vector<std::uint8_t> stage_mask(const Scene& sc, const SceneSetup& su, cons
       c.n_segments = static_cast<int>(segments.size());
       c.base_mu = *sc.base->mu;
     }
-    if (lifting) {
-      c.gate_lifting = 1;
+    if (lifting || cylinder) {
+      c.gate = cylinder ? kCylinderGate : kPlaneGate;
       c.gate_bits = gate_bits;
+      c.gate_radial = cylinder && st.gate->normal_only;
       for (int d = 0; d < D; ++d) {
         c.gate_point[d] = st.gate->point[d];
-        c.gate_normal[d] = st.gate->normal[d];
+        if (!cylinder) c.gate_normal[d] = st.gate->normal[d];
       }
+      c.gate_radius = st.gate->radius;
       c.lift_speed = st.gate->lift_speed;
       c.lift_start = stage_start;
     }
@@ -233,7 +244,14 @@ std::vector<TerrainNode> setup_node_masks(const Scene& sc, SceneSetup& su, const
     const Stage& st = sc.stages[si];
     int gate_axis = -1;
     const bool lifting = st.gate && st.gate->lift_speed != 0;
-    if (st.gate) {
+    if (st.gate && st.gate->radius != 0) {
+      const std::string key = "stage[" + std::to_string(si) + "].gate.";
+      if (D != 3) fail(key + "radius", "a cylindrical gate needs a 3D scene");
+      if (!(st.gate->radius >= sc.h))
+        fail(key + "radius", "must be at least the grid spacing h = " + fmt(sc.h) + " m, got " + fmt(st.gate->radius));
+      if (!st.gate->normal.empty()) fail(key + "normal", "a cylindrical gate (radius) has no normal: its axis is vertical through point");
+      if (!(st.gate->lift_speed >= 0)) fail(key + "lift_speed", "must be >= 0 (0: held whole while the stage lasts), got " + fmt(st.gate->lift_speed));
+    } else if (st.gate) {
       int nz = 0;
       for (int d = 0; d < D; ++d)
         if (st.gate->normal[d] != 0) { ++nz; gate_axis = d; }

@@ -603,16 +603,23 @@ Scene read_scene(const toml::table& doc, const std::string& path, const Material
     if (auto g = s.optional_table("gate")) {
       mpm::Gate gate;
       gate.point = vec(*g, "point", D);
-      gate.normal = vec(*g, "normal", D);
       gate.normal_only = g->choice("hold", {"normal", "all"}, "normal") == "normal";
-      int nz = 0;
-      for (double c : gate.normal) nz += c != 0;
-      if (nz == 0) g->fail("normal", "must not be zero");
-      if (gate.normal_only && nz != 1)
-        g->fail("hold", "\"normal\" needs an axis-aligned normal; use \"all\" for an inclined gate");
       gate.lift_speed = g->number_or("lift_speed", 0.0, Bounds::positive());
-      if (gate.lift_speed > 0 && gate.normal[1] != 0)
-        g->fail("lift_speed", "a gate is lifted along y: its normal must have no y component (a vertical gate)");
+      if (g->has("radius")) {  // a vertical cylinder about point: no normal
+        if (D != 3) g->fail("radius", "a cylindrical gate needs a 3D scene (grid.dim = 3)");
+        gate.radius = g->number("radius", Bounds::positive());
+        if (g->has("normal")) g->fail("normal", "a cylindrical gate (radius) has no normal: its axis is vertical through point");
+        note(*g, "radius");
+      } else {
+        gate.normal = vec(*g, "normal", D);
+        int nz = 0;
+        for (double c : gate.normal) nz += c != 0;
+        if (nz == 0) g->fail("normal", "must not be zero");
+        if (gate.normal_only && nz != 1)
+          g->fail("hold", "\"normal\" needs an axis-aligned normal; use \"all\" for an inclined gate");
+        if (gate.lift_speed > 0 && gate.normal[1] != 0)
+          g->fail("lift_speed", "a gate is lifted along y: its normal must have no y component (a vertical gate)");
+      }
       note(*g, "normal");
       note(*g, "hold");
       note(*g, "lift_speed");

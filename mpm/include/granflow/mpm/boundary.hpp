@@ -5,7 +5,8 @@
 //
 // A stage's boundary is one block of bytes (SceneSetup::stage_masks, uploaded as it is): one
 // mask byte per node (bit d: velocity component d held at zero; kContactNode: the node goes
-// through contact_node), then, where the scene has friction or the stage a lifting gate, a
+// through contact_node), then, where the scene has friction or the stage a lifting or
+// cylindrical gate, a
 // ContactTable at the next 16-byte boundary, followed by its base segments. Which walls, base
 // segment or gate act on a flagged node is decided from the node's position with the same
 // predicates make_setup uses, so there is one definition of "held" for host and device.
@@ -42,13 +43,19 @@ struct ContactTable {
   int n_segments = 0;  // of the frictional base (2D), stored after the table
   FrictionWall walls[6];
   double base_mu = 0;
-  // Lifting gate: the gate's half-space (x - point) . normal >= 0, at and above its lower
-  // edge, which is at point's height (y) at lift_start and rises at lift_speed.
-  int gate_lifting = 0;
-  int gate_bits = 0;  // components it holds
+  // Gate (gate != kNoGate; a plane gate held whole goes by the masks alone): the plane's
+  // half-space (x - point) . normal >= 0, or the nodes at and outside the vertical cylinder of
+  // gate_radius about point; lifted (lift_speed > 0), only at and above its lower edge, which
+  // is at point's height (y) at lift_start and rises at lift_speed.
+  int gate = 0;
+  int gate_bits = 0;    // components it holds
+  int gate_radial = 0;  // a cylinder holding the radial component (hold = "normal")
   double gate_point[3] = {0, 0, 0}, gate_normal[3] = {0, 0, 0};
+  double gate_radius = 0;
   double lift_speed = 0, lift_start = 0;
 };
+
+inline constexpr int kNoGate = 0, kPlaneGate = 1, kCylinderGate = 2;
 
 GF_HDI long contact_table_offset(long n_nodes) { return (n_nodes + 15) / 16 * 16; }
 
@@ -91,6 +98,20 @@ GF_HDI bool in_gate_halfspace(const double* point, const double* normal, const d
   return s >= -tol;
 }
 
+// On or outside the vertical cylinder of radius r about the axis through point (3D).
+GF_HDI bool outside_gate_cylinder(const double* point, double r, const double* x, double tol) {
+  const double dx = x[0] - point[0], dz = x[2] - point[2];
+  const double rr = r - tol;
+  return dx * dx + dz * dz >= rr * rr;
+}
+
+GF_HDI bool gate_holds(const ContactTable& c, const double* x, int dim, double t) {
+  if (c.gate == kNoGate) return false;
+  const bool region = c.gate == kCylinderGate ? outside_gate_cylinder(c.gate_point, c.gate_radius, x, c.tol)
+                                              : in_gate_halfspace(c.gate_point, c.gate_normal, x, dim, c.tol);
+  return region && (c.lift_speed == 0 || x[1] >= gate_edge(c, t) - c.tol);
+}
+
 // ---- the contact condition ---------------------------------------------------------------
 
 // Coulomb contact with a rigid wall of outward normal n (into the wall), applied to the trial
@@ -116,8 +137,8 @@ GF_HDI void coulomb_contact(S* v, const double* n, double mu) {
 }
 
 // Velocity of a flagged node after the stage's masks: friction of every frictional wall the
-// node lies on or beyond (in scene order), then of the base, then the lifting gate's hold
-// (t: time at the start of the step).
+// node lies on or beyond (in scene order), then of the base, then the hold of a lifting or
+// cylindrical gate (t: time at the start of the step).
 template <int D, class S>
 GF_HDI void contact_node(const GridView<S>& gv, long I, const GridDesc<D, S>& g, double t) {
   using G = GridLayout<D>;
@@ -150,10 +171,20 @@ GF_HDI void contact_node(const GridView<S>& gv, long I, const GridDesc<D, S>& g,
       }
     }
   }
-  if (c.gate_lifting && in_gate_halfspace(c.gate_point, c.gate_normal, x, D, c.tol) &&
-      x[1] >= gate_edge(c, t) - c.tol)
+  if (gate_holds(c, x, D, t)) {
+    if constexpr (D == 3) {
+      if (c.gate_radial) {  // the radial component, both ways (as a plane gate's normal)
+        const double dx = x[0] - c.gate_point[0], dz = x[2] - c.gate_point[2];
+        const double r = std::sqrt(dx * dx + dz * dz);  // >= gate_radius - tol > 0
+        const S nx = S(dx / r), nz = S(dz / r);
+        const S vr = v[0] * nx + v[2] * nz;
+        v[0] -= vr * nx;
+        v[2] -= vr * nz;
+      }
+    }
     for (int d = 0; d < D; ++d)
       if (c.gate_bits & (1 << d)) v[d] = S(0);
+  }
   for (int d = 0; d < D; ++d) gv.f(G::VNEW + d, I) = v[d];
 }
 

@@ -128,6 +128,11 @@ struct Gate {
   // above its lower edge, at point's height (y) at the start and rising at lift_speed. The
   // normal must be horizontal. 0: held whole while the stage lasts.
   double lift_speed = 0;
+  // > 0 [m] (3D): a vertical cylinder instead of a plane, about the axis through point along y;
+  // it holds the nodes at and outside this radius (normal is empty). "normal" holds the radial
+  // component (free slip on the cylinder), "all" every component. A release volume's plan
+  // cannot be held by a plane: the axisymmetric collapse (docs/mpm_results.md) needs this.
+  double radius = 0;
 };
 
 struct Stage {
