@@ -593,19 +593,6 @@ Scene gated_cylinder_ci(bool radial, double lift_speed) {
   return sc;
 }
 
-GridDesc<3, double> grid3_of(const SceneSetup& su) {
-  GridDesc<3, double> g{};
-  for (int d = 0; d < 3; ++d) {
-    g.origin[d] = su.origin[d];
-    g.nodes[d] = su.nodes[d];
-  }
-  g.h = su.scene.h;
-  g.inv_h = 1.0 / su.scene.h;
-  g.n_nodes = su.n_nodes;
-  g.nx = su.nodes[0];
-  return g;
-}
-
 }  // namespace
 
 // The cylindrical gate in the grid update: a node at or outside radius R0 of the axis loses its
@@ -619,7 +606,7 @@ TEST(TerrainMaps, CylindricalGateHoldsTheRadialVelocityOutsideItsRadius) {
     const SceneSetup su = make_setup_for_file(gated_cylinder_ci(radial, speed));
     ASSERT_TRUE(stage_has_contacts(su, 0));
     StepParams<3, double, FR> sp{};
-    sp.grid = grid3_of(su);
+    sp.grid = test::grid_of<3>(su);
     sp.dt = 1e-4;
     sp.t = 0.12;
     const double edge = speed * sp.t;

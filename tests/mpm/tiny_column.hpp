@@ -10,10 +10,11 @@
 
 namespace granflow::mpm::test {
 
-// The 2D grid of a set-up as the kernels see it (no walls), for tests that call kernels directly.
-inline GridDesc<2, double> grid_of(const SceneSetup& su) {
-  GridDesc<2, double> g{};
-  for (int d = 0; d < 2; ++d) {
+// The grid of a set-up as the kernels see it (no walls), for tests that call kernels directly.
+template <int D = 2>
+GridDesc<D, double> grid_of(const SceneSetup& su) {
+  GridDesc<D, double> g{};
+  for (int d = 0; d < D; ++d) {
     g.origin[d] = su.origin[d];
     g.nodes[d] = su.nodes[d];
   }
