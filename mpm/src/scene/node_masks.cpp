@@ -136,14 +136,8 @@ std::vector<std::uint8_t> stage_mask(const Scene& sc, const SceneSetup& su, cons
         m |= all;
     }
     if (st.gate) {
-      bool held;
-      if (cylinder) {
-        held = outside_gate_cylinder(st.gate->point.data(), st.gate->radius, x, tol);
-      } else {
-        double s = 0;
-        for (int d = 0; d < D; ++d) s += (x[d] - st.gate->point[d]) * st.gate->normal[d];
-        held = s >= -tol;
-      }
+      const bool held = cylinder ? outside_gate_cylinder(st.gate->point.data(), st.gate->radius, x, tol)
+                                 : in_gate_halfspace(st.gate->point.data(), st.gate->normal.data(), x, D, tol);
       if (held) {
         if (lifting || cylinder)
           contact = true;
@@ -244,13 +238,14 @@ std::vector<TerrainNode> setup_node_masks(const Scene& sc, SceneSetup& su, const
     const Stage& st = sc.stages[si];
     int gate_axis = -1;
     const bool lifting = st.gate && st.gate->lift_speed != 0;
+    if (st.gate && !(st.gate->lift_speed >= 0))
+      fail("stage[" + std::to_string(si) + "].gate.lift_speed", "must be >= 0 (0: held whole while the stage lasts), got " + fmt(st.gate->lift_speed));
     if (st.gate && st.gate->radius != 0) {
       const std::string key = "stage[" + std::to_string(si) + "].gate.";
       if (D != 3) fail(key + "radius", "a cylindrical gate needs a 3D scene");
       if (!(st.gate->radius >= sc.h))
         fail(key + "radius", "must be at least the grid spacing h = " + fmt(sc.h) + " m, got " + fmt(st.gate->radius));
       if (!st.gate->normal.empty()) fail(key + "normal", "a cylindrical gate (radius) has no normal: its axis is vertical through point");
-      if (!(st.gate->lift_speed >= 0)) fail(key + "lift_speed", "must be >= 0 (0: held whole while the stage lasts), got " + fmt(st.gate->lift_speed));
     } else if (st.gate) {
       int nz = 0;
       for (int d = 0; d < D; ++d)
@@ -259,8 +254,6 @@ std::vector<TerrainNode> setup_node_masks(const Scene& sc, SceneSetup& su, const
       if (st.gate->normal_only && nz != 1)
         fail("stage[" + std::to_string(si) + "].gate.hold",
              "\"normal\" needs an axis-aligned normal; use \"all\" for an inclined gate");
-      if (!(st.gate->lift_speed >= 0))
-        fail("stage[" + std::to_string(si) + "].gate.lift_speed", "must be >= 0 (0: held whole while the stage lasts), got " + fmt(st.gate->lift_speed));
       if (lifting && st.gate->normal[1] != 0)
         fail("stage[" + std::to_string(si) + "].gate.lift_speed",
              "a gate is lifted along y: its normal must have no y component (a vertical gate)");
