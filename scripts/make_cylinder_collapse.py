@@ -5,6 +5,7 @@
         [--set column_collapse] [--model phase_transition|frictional] [--full] [--vertices 49]
         [--ppc 8] [--dt DT] [--duration 1.2] [--precision fp32|mixed|fp64]
         [--scene scene.toml] [--rasters SUBDIR] [--spread S] [--gate-lift-speed V [--consolidation 0.1]]
+        [--far-walls none|no_slip]
 
 Writes OUT_DIR/scene.toml (--scene) and its flat rasters (ground.asc, top.asc, in OUT_DIR or
 its --rasters subfolder): a cylinder of radius R0 and
@@ -50,6 +51,9 @@ p.add_argument("--spread", type=float, default=0.0,
 p.add_argument("--gate-lift-speed", type=float, default=None,
                help="consolidate behind a cylindrical gate (radius R0), then lift it at this speed [m/s] (0: removed at once)")
 p.add_argument("--consolidation", type=float, default=0.1, help="the consolidation stage's duration [s], with --gate-lift-speed")
+p.add_argument("--far-walls", default="none", choices=["none", "no_slip"],
+               help="walls at the grid's far sides (x+, z+; and x-, z- with --full): no_slip stops the lone fringe "
+                    "points that slide over the no-slip ground at about 1 m/s and would leave the grid (mpm_results.md)")
 a = p.parse_args()
 
 R0, H0, h = a.r0, a.a * a.r0, a.h
@@ -123,6 +127,9 @@ lines = [
 ]
 if not a.full:
     lines += ["[[wall]]", 'side = "x-"', 'type = "free_slip"', "", "[[wall]]", 'side = "z-"', 'type = "free_slip"', ""]
+far = ["x+", "z+"] + (["x-", "z-"] if a.full else []) if a.far_walls != "none" else []
+for side_name in far:
+    lines += ["[[wall]]", f'side = "{side_name}"', f'type = "{a.far_walls}"', ""]
 gate = ["[stage.gate]", f"point = [{cx:.9g}, 0.0, {cz:.9g}]", f"radius = {R0:.9g}", 'hold = "normal"']
 if gated:
     lines += ["[[stage]]", 'name = "consolidation"', f"duration = {a.consolidation:g}", "damping = 0.5"] + gate + [""]
