@@ -63,7 +63,9 @@
 # runs, and its output), series.csv, PART_csv.tgz (the runs' CSV outputs); stdout has the
 # commands and one line of figures per run. Run folders go to $RUNS (default /tmp/gf_gpu).
 # Environment: BUILD (build-gpu), CUDA_ARCH (90), GRANFLOW_MPM_CUDA_3D (ON: the 3d part needs
-# it), TMO (seconds cap of each run; default per run), SANITIZE_TOOLS ("memcheck racecheck"),
+# it), TMO (seconds cap of each run; default per run), KILL_AFTER (30: seconds a
+# capped run has for its checkpoint after SIGTERM before SIGKILL; the R0/h 80 cylinder, 3.2e6
+# points, wrote none within 30 s), SANITIZE_TOOLS ("memcheck racecheck"),
 # BACKEND (cuda; cpu tries the runs on the CPU twin). Sourced, the script only defines its
 # functions (series, run, bench: for single runs by hand).
 set -o pipefail
@@ -99,7 +101,7 @@ x() {
   shift 2
   mkdir -p "$(dirname "$file")"
   echo "+ $(words "$@")" | tee -a "$log"
-  timeout -k 30 "$cap" "$@" >"$file.raw" 2>&1
+  timeout -k "${KILL_AFTER:-30}" "$cap" "$@" >"$file.raw" 2>&1
   local rc=$?
   tr '\r' '\n' <"$file.raw" | awk '/steps\/s  ETA/ {last = $0; next} {print} END {if (last != "") print last}' >"$file"
   rm -f "$file.raw"
