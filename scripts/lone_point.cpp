@@ -10,6 +10,7 @@
 //   g++ -O2 -std=c++20 -fopenmp -I mpm/include -I io/include -I constitutive/include \
 //       -I .deps/include scripts/lone_point.cpp build-gpu/mpm/libgranflow_mpm.a \
 //       build-gpu/io/libgranflow_io.a -lassimp -o /tmp/lone_point
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>

@@ -127,9 +127,9 @@ lines = [
 ]
 if not a.full:
     lines += ["[[wall]]", 'side = "x-"', 'type = "free_slip"', "", "[[wall]]", 'side = "z-"', 'type = "free_slip"', ""]
-far = ["x+", "z+"] + (["x-", "z-"] if a.full else []) if a.far_walls != "none" else []
-for side_name in far:
-    lines += ["[[wall]]", f'side = "{side_name}"', f'type = "{a.far_walls}"', ""]
+if a.far_walls != "none":
+    for side_name in ["x+", "z+"] + (["x-", "z-"] if a.full else []):
+        lines += ["[[wall]]", f'side = "{side_name}"', f'type = "{a.far_walls}"', ""]
 gate = ["[stage.gate]", f"point = [{cx:.9g}, 0.0, {cz:.9g}]", f"radius = {R0:.9g}", 'hold = "normal"']
 if gated:
     lines += ["[[stage]]", 'name = "consolidation"', f"duration = {a.consolidation:g}", "damping = 0.5"] + gate + [""]
